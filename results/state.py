@@ -1,0 +1,170 @@
+"""The result of any solver: one equilibrium state with its fields, measures and VTK output."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from . import metrics
+from .vtk import CellBlock, write_vtu
+
+ENERGY_KEYS = ("membrane", "frame_bending", "frame_torsion", "frame_axial", "total")
+"""Names of the energy split (N mm), the same for every solver."""
+
+SUMMARY_COLUMNS = (
+    ("prestretch", "-"),
+    ("bending_angle", "deg"),
+    ("apex_x", "mm"),
+    ("apex_y", "mm"),
+    ("apex_z", "mm"),
+    ("mid_height_width", "mm"),
+    ("energy_membrane", "N mm"),
+    ("energy_frame_bending", "N mm"),
+    ("energy_frame_torsion", "N mm"),
+    ("energy_frame_axial", "N mm"),
+    ("energy_total", "N mm"),
+    ("iterations", "-"),
+    ("residual", "-"),
+    ("wall_time", "s"),
+    ("converged", "-"),
+    ("status", "-"),
+)
+"""Columns of a state's one-line summary (CSV tables), with units."""
+
+
+@dataclass
+class Result:
+    """One equilibrium state (or the last state reached, if ``converged`` is False).
+
+    Attributes
+    ----------
+    solver
+        'dr' or 'fem'.
+    x, x0
+        Node positions now and in the flat reference, (n, 3) mm.
+    converged, status, message
+        Whether the solver met its tolerance; a one-word status ('converged', 'max_iterations',
+        'diverged', 'self_contact', ...) and a sentence that says what happened.
+    iterations, residual, residual_history, wall_time
+        Solver steps, final relative residual, its history, seconds.
+    energy
+        Strain energy split (N mm), keys :data:`ENERGY_KEYS`.
+    prestretch
+        The pre-stretch ratio of this state.
+    frame_nodes, frame_s
+        Indices into x of the frame centreline nodes, ordered along the closed frame from the
+        base midpoint, and their reference arc lengths (mm). None if the model has no frame.
+    scene
+        The scene this state solves (None for a low-level model).
+    blocks, point_data
+        What the VTK file holds: cell blocks with per-cell fields, and per-node fields.
+    info
+        Solver-specific extras (kinetic-energy peaks, element forces, ...).
+    """
+
+    solver: str
+    x: np.ndarray
+    x0: np.ndarray
+    converged: bool
+    status: str
+    message: str
+    iterations: int
+    residual: float
+    wall_time: float
+    energy: dict[str, float]
+    residual_history: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    prestretch: float = float("nan")
+    frame_nodes: np.ndarray | None = None
+    frame_s: np.ndarray | None = None
+    scene: Any = None
+    blocks: dict[str, CellBlock] = field(default_factory=dict)
+    point_data: dict[str, np.ndarray] = field(default_factory=dict)
+    info: dict[str, Any] = field(default_factory=dict)
+
+    # ----------------------------------------------------------------- frame measures
+    def _frame(self) -> tuple[np.ndarray, np.ndarray, float]:
+        if self.frame_nodes is None or self.frame_s is None:
+            raise ValueError("this model has no frame: add a beam chain or solve a scene")
+        length = self.scene.outline.length if self.scene is not None else float(self.frame_s[-1])
+        return self.x[self.frame_nodes], self.frame_s, length
+
+    def frame_curve(self, samples: int | None = None) -> np.ndarray:
+        """Frame centreline (k, 3) mm: the frame nodes in order, or ``samples`` points at equal
+        reference arc length from the base midpoint."""
+        x, s, length = self._frame()
+        return x if samples is None else metrics.resample(x, s, length, samples)
+
+    def frame_point(self, s: float | np.ndarray) -> np.ndarray:
+        """Frame position(s) (m, 3) at reference arc length(s) s, mm."""
+        x, s_nodes, length = self._frame()
+        return metrics.frame_at(x, s_nodes, length, np.atleast_1d(s))
+
+    def _need_scene(self) -> None:
+        if self.scene is None:
+            raise ValueError("this measure is defined on a scene; use dr.solve(scene)")
+
+    @property
+    def apex(self) -> np.ndarray:
+        """Apex position (3,) mm: the frame point opposite the base."""
+        self._need_scene()
+        return self.frame_point(self.scene.outline.apex_arc_length())[0]
+
+    @property
+    def bending_angle(self) -> float:
+        """Bending angle (deg): base midpoint -> apex above the flat plane, in the symmetry plane."""
+        self._need_scene()
+        return metrics.bending_angle(self.apex, self.frame_point(0.0)[0])
+
+    @property
+    def mid_height_width(self) -> float:
+        """In-plane width of the frame at mid-height (mm, along the base): the collapse measure."""
+        self._need_scene()
+        right, left = self.frame_point(np.array(self.scene.outline.mid_height_arc_lengths()))
+        return float(right[0] - left[0])
+
+    def shape_error(self, other: "Result") -> tuple[float, float]:
+        """RMS and max frame-curve distance to ``other`` at equal arc length, / side length."""
+        self._need_scene()
+        xa, sa, length = self._frame()
+        xb, sb, _ = other._frame()
+        return metrics.shape_error(xa, sa, xb, sb, length, self.scene.outline.side_length)
+
+    # ----------------------------------------------------------------- output
+    def summary(self) -> dict[str, Any]:
+        """One row of scalar results, keys :data:`SUMMARY_COLUMNS` (NaN where not defined)."""
+        row: dict[str, Any] = {"prestretch": self.prestretch}
+        try:
+            apex = self.apex
+            row.update(
+                bending_angle=self.bending_angle,
+                apex_x=apex[0],
+                apex_y=apex[1],
+                apex_z=apex[2],
+                mid_height_width=self.mid_height_width,
+            )
+        except ValueError:
+            row.update(
+                bending_angle=np.nan, apex_x=np.nan, apex_y=np.nan, apex_z=np.nan,
+                mid_height_width=np.nan,
+            )
+        for k in ENERGY_KEYS:
+            row[f"energy_{k}"] = self.energy.get(k, 0.0)
+        row.update(
+            iterations=self.iterations,
+            residual=self.residual,
+            wall_time=self.wall_time,
+            converged=self.converged,
+            status=self.status,
+        )
+        return row
+
+    def write_vtk(self, path: str | Path) -> Path:
+        """Write this state as a .vtu file for ParaView (atomically); returns the path.
+
+        Point data always holds the displacement from the flat reference (mm).
+        """
+        point_data = {"displacement_mm": self.x - self.x0, **self.point_data}
+        return write_vtu(path, self.x, self.blocks, point_data)

@@ -1,0 +1,85 @@
+"""Scenes: what is modelled (frame, membrane, pre-stretch, supports, mesh), solver-independent.
+
+>>> import scenes
+>>> scene = scenes.load("demes_paper")          # the built-in paper scene (Table I)
+>>> scene = scenes.paper_demes(prestretch=1.3, **{"frame.model": "strip"})
+"""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+from typing import Any
+
+from .errors import SceneError
+from .geometry import Outline
+from .scene import (
+    DRSpec,
+    FEMSpec,
+    FrameSpec,
+    LoadingSpec,
+    MembraneSpec,
+    MeshSpec,
+    PerturbationSpec,
+    Scene,
+    SupportSpec,
+)
+
+if sys.version_info >= (3, 11):
+    import tomllib
+else:  # pragma: no cover
+    import tomli as tomllib
+
+BUILTIN_DIR = Path(__file__).parent
+
+__all__ = [
+    "Scene",
+    "SceneError",
+    "Outline",
+    "FrameSpec",
+    "MembraneSpec",
+    "LoadingSpec",
+    "SupportSpec",
+    "PerturbationSpec",
+    "MeshSpec",
+    "DRSpec",
+    "FEMSpec",
+    "load",
+    "paper_demes",
+    "builtin_scenes",
+]
+
+
+def builtin_scenes() -> list[str]:
+    """Names of the scenes shipped with the package."""
+    return sorted(p.stem for p in BUILTIN_DIR.glob("*.toml"))
+
+
+def load(source: str | Path) -> Scene:
+    """Read and check a scene from a TOML file path or a built-in scene name.
+
+    Raises
+    ------
+    SceneError
+        If the file is missing or not TOML, or a field is bad; the message names the field.
+    """
+    path = Path(source)
+    if not path.exists() and path.suffix == "" and (BUILTIN_DIR / f"{path.name}.toml").exists():
+        path = BUILTIN_DIR / f"{path.name}.toml"
+    if not path.exists():
+        raise SceneError(
+            f"scene file {str(source)!r} not found; give a path to a .toml file or one of the "
+            f"built-in scenes: {', '.join(builtin_scenes())}"
+        )
+    try:
+        data = tomllib.loads(path.read_text())
+    except tomllib.TOMLDecodeError as exc:
+        raise SceneError(f"{path}: not valid TOML: {exc}") from None
+    data.setdefault("name", path.stem)
+    return Scene.from_dict(data)
+
+
+def paper_demes(prestretch: float = 1.5, frame_model: str = "paper", **changes: Any) -> Scene:
+    """The paper's DEMES (Table I) at ``prestretch``, with further dotted-name ``changes``."""
+    scene = load("demes_paper")
+    return scene.updated(prestretch=prestretch, **{"frame.model": frame_model}, **changes)

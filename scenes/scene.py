@@ -1,0 +1,450 @@
+"""What is modelled, independently of any solver: frame, membrane, pre-stretch, supports, mesh.
+
+A scene is a tree of frozen dataclasses. Every field is checked when the scene is built, and a bad
+field raises :class:`SceneError` naming it (``frame.corner_radius``) and the fix. Units are mm,
+N, MPa throughout.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass, field
+from functools import cached_property
+from typing import Any, Callable
+
+import numpy as np
+
+from .errors import SceneError
+from .geometry import Outline, equilateral_triangle
+
+# ----------------------------------------------------------------------------- field checks
+
+
+def _number(name: str, value: Any) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+        raise SceneError(f"{name} = {value!r} must be a finite number")
+    return float(value)
+
+
+def positive(name: str, value: Any) -> float:
+    v = _number(name, value)
+    if v <= 0:
+        raise SceneError(f"{name} = {v:g} must be positive")
+    return v
+
+
+def non_negative(name: str, value: Any) -> float:
+    v = _number(name, value)
+    if v < 0:
+        raise SceneError(f"{name} = {v:g} must be zero or positive")
+    return v
+
+
+def finite(name: str, value: Any) -> float:
+    return _number(name, value)
+
+
+def prestretch_value(name: str, value: Any) -> float:
+    v = _number(name, value)
+    if v < 1.0:
+        raise SceneError(
+            f"{name} = {v:g} is below 1: pre-stretch is a stretch ratio (1.0 = none, 1.5 = 150 %), "
+            "and a membrane cannot be pre-compressed"
+        )
+    return v
+
+
+def prestretch_list(name: str, value: Any) -> tuple[float, ...]:
+    if not isinstance(value, (list, tuple)):
+        raise SceneError(f"{name} must be a list of pre-stretch ratios, e.g. [1.1, 1.3, 1.5]")
+    return tuple(prestretch_value(f"{name}[{i}]", v) for i, v in enumerate(value))
+
+
+def boolean(name: str, value: Any) -> bool:
+    if not isinstance(value, bool):
+        raise SceneError(f"{name} = {value!r} must be true or false")
+    return value
+
+
+def integer_at_least(low: int) -> Callable[[str, Any], int]:
+    def check(name: str, value: Any) -> int:
+        if isinstance(value, bool) or not isinstance(value, int):
+            raise SceneError(f"{name} = {value!r} must be a whole number")
+        if value < low:
+            raise SceneError(f"{name} = {value} is too small: use at least {low}")
+        return value
+
+    return check
+
+
+def one_of(*choices: str) -> Callable[[str, Any], str]:
+    def check(name: str, value: Any) -> str:
+        if value not in choices:
+            raise SceneError(f"{name} = {value!r} is not one of {', '.join(map(repr, choices))}")
+        return value
+
+    return check
+
+
+def optional(check: Callable[[str, Any], Any]) -> Callable[[str, Any], Any]:
+    def wrapped(name: str, value: Any) -> Any:
+        return None if value is None else check(name, value)
+
+    return wrapped
+
+
+def vertex_list(name: str, value: Any) -> tuple[tuple[float, float], ...] | None:
+    if value is None:
+        return None
+    try:
+        pts = tuple((float(p[0]), float(p[1])) for p in value if len(p) == 2)
+    except (TypeError, ValueError, IndexError):
+        pts = ()
+    if len(pts) != len(value) or len(pts) < 3:
+        raise SceneError(f"{name} must be a list of at least 3 [x, y] points in mm")
+    return pts
+
+
+def spec(default: Any, check: Callable[[str, Any], Any], unit: str = "", doc: str = "") -> Any:
+    """A scene field with its default, its check, its unit and a one-line description."""
+    return field(default=default, metadata={"check": check, "unit": unit, "doc": doc})
+
+
+class _Section:
+    """Base of scene sections: runs every field's check with the field's dotted name."""
+
+    _prefix = ""
+
+    def __post_init__(self) -> None:
+        for f in dataclasses.fields(self):
+            check = f.metadata.get("check")
+            if check is not None:
+                object.__setattr__(
+                    self, f.name, check(f"{self._prefix}.{f.name}", getattr(self, f.name))
+                )
+
+    @classmethod
+    def from_dict(cls, data: dict[str, Any]) -> "_Section":
+        if not isinstance(data, dict):
+            raise SceneError(f"[{cls._prefix}] must be a table of fields")
+        names = {f.name for f in dataclasses.fields(cls) if f.init}
+        unknown = sorted(set(data) - names)
+        if unknown:
+            raise SceneError(
+                f"unknown field {cls._prefix}.{unknown[0]}; the fields of [{cls._prefix}] are: "
+                + ", ".join(sorted(names))
+            )
+        return cls(**data)
+
+    def to_dict(self) -> dict[str, Any]:
+        out = {}
+        for f in dataclasses.fields(self):
+            if not f.init:
+                continue
+            v = getattr(self, f.name)
+            if isinstance(v, tuple):
+                v = [list(p) if isinstance(p, tuple) else p for p in v]
+            out[f.name] = v
+        return out
+
+
+# ----------------------------------------------------------------------------- sections
+
+
+@dataclass(frozen=True)
+class FrameSpec(_Section):
+    """The frame strip: outline of its centreline, cross-section, material and model."""
+
+    _prefix = "frame"
+    outline: str = spec("triangle", one_of("triangle", "polygon"), "", "outline kind")
+    side_length: float = spec(52.0, positive, "mm", "side of the equilateral triangle")
+    vertices: Any = spec(None, vertex_list, "mm", "polygon corners (outline = 'polygon')")
+    corner_radius: float = spec(5.0, non_negative, "mm", "fillet radius at every corner")
+    model: str = spec(
+        "paper",
+        one_of("paper", "strip"),
+        "",
+        "'paper': isotropic spline beam with I; 'strip': weak/strong-axis bending and torsion",
+    )
+    film_offset: bool = spec(
+        False, boolean, "", "film bonded on one face: membrane forces act at t/2 off the centreline"
+    )
+    film_side: str = spec("top", one_of("top", "bottom"), "", "face the film is bonded to")
+    E: float = spec(2600.0, positive, "MPa", "Young's modulus of the strip")
+    poisson: float = spec(0.35, finite, "", "Poisson's ratio (torsion: G = E / (2 (1 + nu)))")
+    width: float = spec(4.0, positive, "mm", "strip width b (in the membrane plane)")
+    thickness: float = spec(0.127, positive, "mm", "strip thickness t")
+    A: float | None = spec(0.5, optional(positive), "mm^2", "axial area; default b t")
+    I: float | None = spec(
+        0.0003, optional(positive), "mm^4", "weak-axis / isotropic second moment; default b t^3/12"
+    )
+
+    def __post_init__(self) -> None:
+        super().__post_init__()
+        if not -1.0 < self.poisson < 0.5:
+            raise SceneError(f"frame.poisson = {self.poisson:g} must lie in (-1, 0.5)")
+        if self.outline == "polygon" and self.vertices is None:
+            raise SceneError("frame.outline = 'polygon' needs frame.vertices = [[x, y], ...] (mm)")
+        if self.thickness >= self.width:
+            raise SceneError(
+                f"frame.thickness = {self.thickness:g} mm must be smaller than frame.width = "
+                f"{self.width:g} mm: the strip bends about its weak axis out of the membrane plane"
+            )
+        _ = self.geometry  # build (and so check) the outline now
+
+    @cached_property
+    def geometry(self) -> Outline:
+        """The centreline outline in the canonical frame (base on the x axis)."""
+        if self.outline == "triangle":
+            return Outline(equilateral_triangle(self.side_length), self.corner_radius)
+        return Outline(np.array(self.vertices), self.corner_radius)
+
+    @property
+    def area(self) -> float:
+        """Axial cross-section area, mm^2."""
+        return self.A if self.A is not None else self.width * self.thickness
+
+    @property
+    def EA(self) -> float:
+        """Axial stiffness, N."""
+        return self.E * self.area
+
+    @property
+    def EI(self) -> float:
+        """Weak-axis (out-of-membrane-plane) bending stiffness, N mm^2; isotropic for 'paper'."""
+        i = self.I if self.I is not None else self.width * self.thickness**3 / 12
+        return self.E * i
+
+    @property
+    def EI_strong(self) -> float:
+        """Strong-axis (in-plane) bending stiffness E t b^3 / 12, N mm^2."""
+        return self.E * self.thickness * self.width**3 / 12
+
+    @property
+    def GJ(self) -> float:
+        """Saint-Venant torsional stiffness of a thin strip, N mm^2.
+
+        J = b t^3 / 3 (1 - 0.63 t / b), the thin-rectangle formula (Roark).
+        """
+        g = self.E / (2 * (1 + self.poisson))
+        b, t = self.width, self.thickness
+        return g * b * t**3 / 3 * (1 - 0.63 * t / b)
+
+    @property
+    def film_offset_distance(self) -> float:
+        """Signed normal offset (mm, + towards the top face) at which the film acts; 0 if off."""
+        if not self.film_offset:
+            return 0.0
+        return (0.5 if self.film_side == "top" else -0.5) * self.thickness
+
+
+@dataclass(frozen=True)
+class MembraneSpec(_Section):
+    """The pre-stretched film. ``thickness`` is the thickness as mounted (stretched), as in Table I."""
+
+    _prefix = "membrane"
+    E: float = spec(1.0, positive, "MPa", "Young's modulus of the film")
+    thickness: float = spec(0.05, positive, "mm", "film thickness in the mounted, flat state")
+    law: str = spec(
+        "linear",
+        one_of("linear", "neo-hookean"),
+        "",
+        "'linear': Hookean in the engineering strain from the rest state (the DR link law)",
+    )
+    tension_only: bool = spec(True, boolean, "", "slack membrane carries no compression")
+
+
+@dataclass(frozen=True)
+class LoadingSpec(_Section):
+    """Pre-stretch ratio (1.0 = none) and the sweep that ``demes solve`` runs by default."""
+
+    _prefix = "loading"
+    prestretch: float = spec(1.5, prestretch_value, "", "isotropic pre-stretch ratio")
+    sweep: tuple = spec(
+        (1.0, 1.1, 1.2, 1.3, 1.4, 1.5, 1.6, 1.7, 1.8, 1.9, 2.0),
+        prestretch_list,
+        "",
+        "pre-stretch ratios of a sweep",
+    )
+
+
+@dataclass(frozen=True)
+class SupportSpec(_Section):
+    """How the base is held: 'taped' pins the base and its corner fillets and clamps the sides."""
+
+    _prefix = "supports"
+    base: str = spec(
+        "taped",
+        one_of("taped", "pinned"),
+        "",
+        "'taped': base region pinned, side tangents clamped; 'pinned': base nodes pinned only",
+    )
+
+
+@dataclass(frozen=True)
+class PerturbationSpec(_Section):
+    """Symmetry-breaking initial shape: z = (amplitude + asymmetry * x / (L/2)) * (y / H)^2."""
+
+    _prefix = "perturbation"
+    amplitude: float = spec(0.5, finite, "mm", "initial apex lift (+ is up)")
+    asymmetry: float = spec(0.0, finite, "mm", "antisymmetric lift of the sides (tilt), mm")
+
+    def __post_init__(self) -> None:
+        super().__post_init__()
+        if self.amplitude == 0.0 and self.asymmetry == 0.0:
+            raise SceneError(
+                "perturbation.amplitude = 0: the flat state is an unstable equilibrium and "
+                "nothing would break its symmetry; give a small lift such as 0.5 mm"
+            )
+
+
+@dataclass(frozen=True)
+class MeshSpec(_Section):
+    """Mesh density: lattice divisions along the base side (DR) / element size side/divisions (FEM)."""
+
+    _prefix = "mesh"
+    divisions: int = spec(28, integer_at_least(4), "", "divisions per base side")
+
+
+@dataclass(frozen=True)
+class DRSpec(_Section):
+    """Settings of the dynamic-relaxation solver."""
+
+    _prefix = "dr"
+    membrane_net: str = spec(
+        "clustered",
+        one_of("clustered", "links"),
+        "",
+        "'clustered': one tension per lattice line (the paper); 'links': one per segment",
+    )
+    tolerance: float = spec(1e-6, positive, "", "residual / largest internal force")
+    mass_safety: float = spec(2.0, positive, "", "fictitious mass safety factor f (>= 1)")
+    max_iterations: int = spec(3_000_000, integer_at_least(1), "", "time-step limit")
+    check_contact: bool = spec(True, boolean, "", "stop on frame self-contact or membrane folds")
+
+
+@dataclass(frozen=True)
+class FEMSpec(_Section):
+    """Settings of the finite-element reference."""
+
+    _prefix = "fem"
+    element: str = spec("P1", one_of("P1", "P2"), "", "membrane element")
+    refinement: int = spec(0, integer_at_least(0), "", "times the element size is halved")
+
+
+@dataclass(frozen=True)
+class Scene:
+    """A complete DEMES scene. Build with :func:`scenes.load` or :func:`scenes.paper_demes`."""
+
+    name: str = "scene"
+    description: str = ""
+    frame: FrameSpec = field(default_factory=FrameSpec)
+    membrane: MembraneSpec = field(default_factory=MembraneSpec)
+    loading: LoadingSpec = field(default_factory=LoadingSpec)
+    supports: SupportSpec = field(default_factory=SupportSpec)
+    perturbation: PerturbationSpec = field(default_factory=PerturbationSpec)
+    mesh: MeshSpec = field(default_factory=MeshSpec)
+    dr: DRSpec = field(default_factory=DRSpec)
+    fem: FEMSpec = field(default_factory=FEMSpec)
+
+    _sections = {
+        "frame": FrameSpec,
+        "membrane": MembraneSpec,
+        "loading": LoadingSpec,
+        "supports": SupportSpec,
+        "perturbation": PerturbationSpec,
+        "mesh": MeshSpec,
+        "dr": DRSpec,
+        "fem": FEMSpec,
+    }
+
+    @property
+    def prestretch(self) -> float:
+        """The scene's pre-stretch ratio."""
+        return self.loading.prestretch
+
+    @property
+    def outline(self) -> Outline:
+        """The frame centreline outline (flat reference, mm)."""
+        return self.frame.geometry
+
+    @property
+    def spacing(self) -> float:
+        """Nominal mesh spacing: base side / divisions, mm."""
+        return self.outline.side_length / self.mesh.divisions
+
+    @classmethod
+    def from_dict(cls, data: dict[str, Any]) -> "Scene":
+        """Build and check a scene from a nested mapping (the parsed TOML)."""
+        if not isinstance(data, dict):
+            raise SceneError("a scene must be a table of sections")
+        known = set(cls._sections) | {"name", "description"}
+        unknown = sorted(set(data) - known)
+        if unknown:
+            raise SceneError(
+                f"unknown section or field {unknown[0]!r}; a scene has: {', '.join(sorted(known))}"
+            )
+        kwargs: dict[str, Any] = {k: data[k] for k in ("name", "description") if k in data}
+        for key, section in cls._sections.items():
+            if key in data:
+                kwargs[key] = section.from_dict(data[key])
+        return cls(**kwargs)
+
+    def to_dict(self) -> dict[str, Any]:
+        """Nested mapping that :meth:`from_dict` turns back into an equal scene."""
+        out: dict[str, Any] = {"name": self.name, "description": self.description}
+        for key in self._sections:
+            out[key] = getattr(self, key).to_dict()
+        return out
+
+    def updated(self, **changes: Any) -> "Scene":
+        """A checked copy with fields changed by dotted name: ``updated(**{"frame.model": "strip"})``.
+
+        ``prestretch=1.3`` is short for ``loading.prestretch``.
+        """
+        data = self.to_dict()
+        for key, value in changes.items():
+            if key == "prestretch":
+                key = "loading.prestretch"
+            path = key.split(".")
+            node = data
+            for p in path[:-1]:
+                if p not in node or not isinstance(node[p], dict):
+                    raise SceneError(f"unknown scene section {p!r} in {key!r}")
+                node = node[p]
+            if path[-1] not in node:
+                raise SceneError(f"unknown scene field {key!r}")
+            node[path[-1]] = value
+        return Scene.from_dict(data)
+
+    def base_region(self) -> tuple[float, float]:
+        """Arc lengths (s_right, s_left), mm: frame points with s <= s_right or s >= s_left are held.
+
+        'taped' holds the base and the fillets of its two corners; 'pinned' only the straight base.
+        """
+        o = self.outline
+        if self.supports.base == "taped":
+            return o.clamp_arc_lengths()
+        first, last = o.pieces[0], o.pieces[-1]
+        return first.s_start + first.length, last.s_start
+
+    def clamps(self) -> list[tuple[float, np.ndarray]]:
+        """Where the frame tangent is clamped: (arc length mm, unit tangent (3,)) pairs.
+
+        'taped' clamps the side tangents where the base corner fillets end (the whole strip is
+        taped flat there); 'pinned' clamps nothing.
+        """
+        if self.supports.base != "taped":
+            return []
+        s = np.array(self.outline.clamp_arc_lengths())
+        _, tangents = self.outline.evaluate(s)
+        return [(float(si), np.array([t[0], t[1], 0.0])) for si, t in zip(s, tangents)]
+
+    def initial_lift(self, xy: np.ndarray) -> np.ndarray:
+        """Initial out-of-plane offset z (mm) of points (m, 2): the symmetry-breaking perturbation."""
+        o = self.outline
+        y = xy[:, 1] / o.height()
+        x = xy[:, 0] / o.base_half_length
+        p = self.perturbation
+        return (p.amplitude + p.asymmetry * x) * np.clip(y, 0.0, None) ** 2
