@@ -1,0 +1,1 @@
+"""Validation: how the solvers are compared, the reports, and the ``demes`` command line."""

@@ -1,0 +1,55 @@
+"""Run a pre-stretch sweep of any solver and write its table, CSV, VTK states and .pvd series."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Callable, Iterator, Sequence
+
+from tqdm import tqdm
+
+from results import SUMMARY_COLUMNS, Result, write_pvd
+
+from .tables import STATE_TABLE, format_table, write_csv
+
+
+def run_sweep(
+    states: Iterator[Result],
+    prestretches: Sequence[float],
+    out_dir: str | Path,
+    label: str,
+    progress: bool = True,
+    on_state: Callable[[Result], None] | None = None,
+) -> list[Result]:
+    """Consume a solver's sweep, writing each finished state at once.
+
+    Each state goes to ``out_dir/label_<prestretch>.vtu``; ``label.csv`` and ``label.pvd`` are
+    rewritten (atomically) after every state, so an interrupted sweep keeps what it finished.
+    """
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    results: list[Result] = []
+    entries: list[tuple[float, Path]] = []
+    bar = tqdm(total=len(prestretches), desc=label, unit="state", disable=not progress, leave=False)
+    try:
+        for res in states:
+            vtu = res.write_vtk(out / f"{label}_{res.prestretch:.3f}.vtu")
+            entries.append((res.prestretch, vtu))
+            results.append(res)
+            write_pvd(out / f"{label}.pvd", entries)
+            write_csv(out / f"{label}.csv", [r.summary() for r in results], [c for c, _ in SUMMARY_COLUMNS])
+            bar.set_postfix_str(f"lambda={res.prestretch:.2f} theta={res.summary()['bending_angle']:.1f} {res.status}")
+            bar.update()
+            if on_state is not None:
+                on_state(res)
+    finally:
+        bar.close()
+    return results
+
+
+def print_table(results: Sequence[Result], title: str = "") -> str:
+    """The state table (as printed by ``demes solve``), returned and printed."""
+    text = format_table([r.summary() for r in results], STATE_TABLE)
+    if title:
+        text = f"{title}\n{text}"
+    print(text, flush=True)
+    return text

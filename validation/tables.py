@@ -1,0 +1,78 @@
+"""Tables of state summaries: aligned text for the terminal, CSV with units in the header."""
+
+from __future__ import annotations
+
+import csv
+import io
+from pathlib import Path
+from typing import Any, Sequence
+
+from results import SUMMARY_COLUMNS, atomic_write_text
+
+UNITS = dict(SUMMARY_COLUMNS)
+
+
+def header(name: str) -> str:
+    """Column header with its unit: 'bending_angle [deg]'."""
+    unit = UNITS.get(name, "-")
+    return name if unit == "-" else f"{name} [{unit}]"
+
+
+def _fmt(v: Any) -> str:
+    if isinstance(v, bool):
+        return "yes" if v else "no"
+    if isinstance(v, int):
+        return str(v)
+    if isinstance(v, float):
+        return f"{v:.6g}"
+    return str(v)
+
+
+def write_csv(path: str | Path, rows: Sequence[dict[str, Any]], columns: Sequence[str] | None = None) -> Path:
+    """Write rows (dicts) as CSV, headers carrying units; atomically."""
+    columns = list(columns or (rows[0].keys() if rows else []))
+    buf = io.StringIO()
+    w = csv.writer(buf)
+    w.writerow([header(c) for c in columns])
+    for r in rows:
+        w.writerow([_fmt(r.get(c, "")) for c in columns])
+    return atomic_write_text(path, buf.getvalue())
+
+
+def format_table(rows: Sequence[dict[str, Any]], columns: Sequence[tuple[str, str, str]]) -> str:
+    """Aligned text table. ``columns``: (key, title, format spec) triples."""
+    head = [title for _, title, _ in columns]
+    body = []
+    for r in rows:
+        line = []
+        for key, _, spec in columns:
+            v = r.get(key, "")
+            if isinstance(v, bool):
+                line.append("yes" if v else "no")
+            elif isinstance(v, (int, float)) and spec:
+                line.append(format(v, spec))
+            else:
+                line.append(str(v))
+        body.append(line)
+    widths = [max(len(h), *(len(b[i]) for b in body)) if body else len(h) for i, h in enumerate(head)]
+    out = ["  ".join(h.rjust(w) for h, w in zip(head, widths))]
+    out += ["  ".join(c.rjust(w) for c, w in zip(b, widths)) for b in body]
+    return "\n".join(out)
+
+
+STATE_TABLE = (
+    ("prestretch", "lambda", ".3f"),
+    ("bending_angle", "theta[deg]", ".2f"),
+    ("apex_y", "apex_y[mm]", ".2f"),
+    ("apex_z", "apex_z[mm]", ".2f"),
+    ("mid_height_width", "width[mm]", ".2f"),
+    ("energy_membrane", "E_mem[Nmm]", ".4g"),
+    ("energy_frame_bending", "E_bend[Nmm]", ".4g"),
+    ("energy_frame_torsion", "E_tors[Nmm]", ".4g"),
+    ("energy_frame_axial", "E_ax[Nmm]", ".3g"),
+    ("energy_total", "E_tot[Nmm]", ".4g"),
+    ("iterations", "iter", "d"),
+    ("wall_time", "time[s]", ".2f"),
+    ("status", "status", ""),
+)
+"""The columns ``demes solve`` and ``demes fem`` print."""
