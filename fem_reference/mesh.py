@@ -1,0 +1,239 @@
+"""Triangle mesh of the membrane region whose boundary nodes lie on the frame centreline.
+
+The region inside ``scene.outline`` is meshed with ``triangle`` (quality mesh, no Steiner points on
+the boundary) at the scene's spacing h0 = side / divisions, with boundary nodes at every piece end
+of the outline (fillet ends, so the clamps), at the base midpoint s = 0 and at the apex. A mirror-
+symmetric outline is meshed on its right half and mirrored, so a symmetric scene gives a
+symmetric discrete problem. ``refinement = k`` splits every triangle into four k times (element
+size h0 / 2^k, nested meshes for a clean convergence study); new boundary nodes are put back on
+the curved outline at the mid arc length of their edge. P2 meshes are isoparametric
+(``MeshTri2``) with their boundary edge nodes on the outline as well.
+
+Node numbering is scikit-fem's DOF numbering: vertices first, then (P2) one node per edge.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+
+import numpy as np
+import scipy.sparse as sp
+import triangle as tr
+from skfem import Basis, ElementTriP1, ElementTriP2, ElementVector, MeshTri1, MeshTri2
+
+from scenes import Scene, SceneError
+
+ELEMENTS = {"P1": ElementTriP1, "P2": ElementTriP2}
+
+
+@dataclass
+class MembraneMesh:
+    """The flat membrane mesh and its frame (boundary) nodes.
+
+    Attributes
+    ----------
+    mesh
+        ``MeshTri1`` (P1) or isoparametric ``MeshTri2`` (P2), mm.
+    linear
+        The straight-sided ``MeshTri1`` with the same vertices (point location, output).
+    element
+        'P1' or 'P2'.
+    basis
+        Vector basis (3 components) of the membrane displacement.
+    nodes
+        (nn, 2) reference positions of the DOF nodes, mm.
+    frame_nodes, frame_s
+        Boundary nodes ordered counter-clockwise from the base midpoint, and their arc lengths (mm).
+    spacing
+        Boundary node spacing along the outline, mm (vertex to vertex).
+    cells, cell_type
+        VTK connectivity of the elements ('triangle' or 'triangle6') in node numbers.
+    """
+
+    mesh: MeshTri1
+    linear: MeshTri1
+    element: str
+    basis: Basis
+    nodes: np.ndarray
+    frame_nodes: np.ndarray
+    frame_s: np.ndarray
+    spacing: float
+    cells: np.ndarray
+    cell_type: str
+
+    @property
+    def n_nodes(self) -> int:
+        return self.nodes.shape[0]
+
+    def interpolation(self, points: np.ndarray) -> sp.csr_matrix:
+        """Sparse (m, nn) matrix of the shape-function values at reference points (m, 2) mm."""
+        cells = self.linear.element_finder()(points[:, 0], points[:, 1])
+        scalar = Basis(self.mesh, ELEMENTS[self.element]())
+        local = scalar.mapping.invF(points.T[:, :, None], tind=cells)
+        phis = np.array([scalar.elem.gbasis(scalar.mapping, local, k, tind=cells)[0].value[:, 0]
+                         for k in range(scalar.Nbfun)])  # (nbfun, m)
+        rows = np.tile(np.arange(points.shape[0]), scalar.Nbfun)
+        cols = scalar.element_dofs[:, cells].ravel()
+        P = sp.coo_matrix((phis.ravel(), (rows, cols)), shape=(points.shape[0], scalar.N)).tocsr()
+        P.data[np.abs(P.data) < 1e-14] = 0.0
+        P.eliminate_zeros()
+        return P
+
+
+# ----------------------------------------------------------------------------- boundary
+
+
+def _is_mirror_symmetric(scene: Scene) -> bool:
+    o = scene.outline
+    s = np.linspace(0.0, o.length, 721, endpoint=False)
+    p, _ = o.evaluate(s)
+    q, _ = o.evaluate(o.length - s)
+    return bool(np.allclose(p * [-1.0, 1.0], q, atol=1e-9 * o.side_length))
+
+
+def _boundary_arc_lengths(landmarks: np.ndarray, start: float, stop: float, h: float) -> np.ndarray:
+    """Arc lengths in [start, stop) at most h apart, every landmark in that range included."""
+    marks = np.unique(np.concatenate([[start, stop], landmarks[(landmarks > start) & (landmarks < stop)]]))
+    parts = []
+    for a, b in zip(marks[:-1], marks[1:]):
+        n = max(1, int(np.ceil((b - a) / h - 1e-9)))
+        parts.append(a + (b - a) * np.arange(n) / n)
+    return np.concatenate(parts)
+
+
+def _triangulate(points: np.ndarray, h: float) -> np.ndarray:
+    """Triangles (k, 3) of the closed polygon ``points`` (m, 2), no new boundary points."""
+    m = points.shape[0]
+    segments = np.column_stack([np.arange(m), np.roll(np.arange(m), -1)])
+    area = np.sqrt(3.0) / 4.0 * h * h
+    out = tr.triangulate({"vertices": points, "segments": segments}, f"pq30a{area:.10f}Y")
+    if not np.allclose(out["vertices"][:m], points):
+        raise RuntimeError("triangle changed the boundary points; the outline is too coarse")
+    return out["vertices"], out["triangles"]
+
+
+def _base_mesh(scene: Scene) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Vertices (nv, 2), triangles (nt, 3), boundary vertex ids and their arc lengths at h0."""
+    o = scene.outline
+    h = scene.spacing
+    L = o.length
+    s_apex = o.apex_arc_length()
+    landmarks = np.unique(np.concatenate([o.breakpoints(), [s_apex, *scene.base_region()]]))
+    if _is_mirror_symmetric(scene):
+        s_right = _boundary_arc_lengths(landmarks, 0.0, s_apex, h)
+        right = o.evaluate(s_right)[0]
+        right[0, 0] = 0.0
+        apex = o.evaluate(s_apex)[0][0]
+        apex[0] = 0.0
+        n_sym = max(1, int(np.ceil(apex[1] / h - 1e-9)))
+        y_sym = apex[1] * np.arange(n_sym - 1, 0, -1) / n_sym
+        half = np.vstack([right, apex, np.column_stack([np.zeros_like(y_sym), y_sym])])
+        verts, tris = _triangulate(half, h)
+        on_axis = np.abs(verts[:, 0]) < 1e-9 * o.side_length
+        verts[on_axis, 0] = 0.0
+        mirror_id = np.arange(len(verts))
+        off = np.flatnonzero(~on_axis)
+        mirror_id[off] = len(verts) + np.arange(off.size)
+        verts = np.vstack([verts, verts[off] * [-1.0, 1.0]])
+        tris = np.vstack([tris, mirror_id[tris][:, ::-1]])
+        # boundary: right half 0..len(right) (apex), then the mirrored right half, reversed
+        b_right = np.arange(len(right) + 1)
+        s_b_right = np.append(s_right, s_apex)
+        b_left = mirror_id[np.arange(1, len(right))][::-1]
+        s_b_left = (L - s_right[1:])[::-1]
+        s_b = _snap(np.concatenate([s_b_right, s_b_left]), landmarks, L)
+        return verts, tris, np.concatenate([b_right, b_left]), s_b
+    s = _boundary_arc_lengths(landmarks, 0.0, L, h)
+    verts, tris = _triangulate(o.evaluate(s)[0], h)
+    return verts, tris, np.arange(s.size), s
+
+
+def _snap(s: np.ndarray, landmarks: np.ndarray, L: float) -> np.ndarray:
+    """Arc lengths equal to a landmark up to round-off (mirrored ones) set exactly to it."""
+    k = np.abs(s[:, None] - landmarks[None, :]) < 1e-9 * L
+    out = s.copy()
+    rows, cols = np.nonzero(k)
+    out[rows] = landmarks[cols]
+    return out
+
+
+def _mid_arc_length(sa: np.ndarray, sb: np.ndarray, L: float) -> np.ndarray:
+    """Arc length halfway between sa and sb along the shorter way round the closed outline."""
+    d = np.mod(sb - sa + 0.5 * L, L) - 0.5 * L
+    return np.mod(sa + 0.5 * d, L)
+
+
+# ----------------------------------------------------------------------------- build
+
+
+def build_mesh(scene: Scene, refinement: int = 0, element: str = "P1") -> MembraneMesh:
+    """Mesh of ``scene``'s membrane at ``refinement`` (element size halved that many times).
+
+    Raises
+    ------
+    SceneError
+        If ``refinement`` or ``element`` is not valid.
+    """
+    if isinstance(refinement, bool) or not isinstance(refinement, (int, np.integer)) or refinement < 0:
+        raise SceneError(f"fem.refinement = {refinement!r} must be a whole number >= 0")
+    if element not in ELEMENTS:
+        raise SceneError(f"fem.element = {element!r} is not one of {', '.join(map(repr, ELEMENTS))}")
+    o = scene.outline
+    L = o.length
+    verts, tris, b_ids, b_s = _base_mesh(scene)
+    mesh = MeshTri1(verts.T.copy(), tris.T.copy())
+    s_of = np.full(mesh.p.shape[1], np.nan)
+    s_of[b_ids] = b_s
+    for _ in range(int(refinement)):
+        facets = mesh.boundary_facets()
+        a, b = mesh.facets[:, facets]
+        s_mid = _mid_arc_length(s_of[a], s_of[b], L)
+        nv = mesh.p.shape[1]
+        fine = mesh.refined()
+        p = fine.p.copy()
+        new = nv + facets  # refined() numbers edge midpoints after the old vertices, in facet order
+        p[:, new] = o.evaluate(s_mid)[0].T
+        mesh = MeshTri1(p, fine.t)
+        s_of = np.concatenate([s_of, np.full(p.shape[1] - nv, np.nan)])
+        s_of[new] = s_mid
+    linear = mesh
+    b_vert = np.flatnonzero(~np.isnan(s_of))
+    if not np.array_equal(np.sort(b_vert), np.sort(mesh.boundary_nodes())):
+        raise RuntimeError("mesh boundary does not match the outline nodes")
+    nodes_s = s_of[b_vert]
+    nv = mesh.p.shape[1]
+    if element == "P2":
+        quad = MeshTri2.from_mesh(mesh)
+        facets = quad.boundary_facets()
+        a, b = quad.facets[:, facets]
+        s_mid = _mid_arc_length(s_of[a], s_of[b], L)
+        doflocs = quad.doflocs.copy()
+        doflocs[:, nv + facets] = o.evaluate(s_mid)[0].T
+        mesh = replace(quad, doflocs=doflocs)
+        b_vert = np.concatenate([b_vert, nv + facets])
+        nodes_s = np.concatenate([nodes_s, s_mid])
+        t2f = linear.t2f  # local edges (0-1, 1-2, 0-2): VTK triangle6 order
+        cells = np.vstack([linear.t, nv + t2f]).T
+        cell_type = "triangle6"
+    else:
+        cells, cell_type = linear.t.T.copy(), "triangle"
+    # counter-clockwise seen from +z, so that element normals point up in the flat state
+    p = linear.p[:, linear.t]
+    flip = (p[0, 1] - p[0, 0]) * (p[1, 2] - p[1, 0]) - (p[1, 1] - p[1, 0]) * (p[0, 2] - p[0, 0]) < 0
+    swap = [0, 2, 1, 5, 4, 3] if cell_type == "triangle6" else [0, 2, 1]
+    cells[flip] = cells[flip][:, swap]
+    basis = Basis(mesh, ElementVector(ELEMENTS[element](), 3))
+    nodes = basis.doflocs[:, ::3].T.copy()
+    order = np.argsort(nodes_s)
+    return MembraneMesh(
+        mesh=mesh,
+        linear=linear,
+        element=element,
+        basis=basis,
+        nodes=nodes,
+        frame_nodes=b_vert[order],
+        frame_s=nodes_s[order],
+        spacing=scene.spacing / 2**int(refinement),
+        cells=cells,
+        cell_type=cell_type,
+    )

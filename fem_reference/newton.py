@@ -1,0 +1,190 @@
+"""Newton's method for energy minimisation, with inertia and lowest-mode checks.
+
+The tangent is factorised as L D L^T (SuperLU with diagonal pivoting in symmetric mode, after a
+symmetric Jacobi scaling); by Sylvester's law the signs of D give the number of negative
+eigenvalues, so an indefinite tangent is seen at no extra cost. Where the tangent is not positive
+definite the step uses K + mu M (M the consistent mass matrix, mu raised until the factor is
+positive), so every step is a descent direction; a backtracking line search on the total energy
+accepts it. The lowest eigenpair of K phi = omega M phi comes from shift-invert Lanczos with the
+shift below it.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Callable, Protocol
+
+import numpy as np
+import scipy.sparse as sp
+import scipy.sparse.linalg as sla
+
+
+class Evaluation(Protocol):
+    total: float
+    gradient: np.ndarray
+    tangent: sp.csr_matrix | None
+    force_scale: float
+
+
+class Problem(Protocol):
+    """What Newton needs: DOF count, free DOFs, a mass matrix, energy and derivatives."""
+
+    n_dofs: int
+    free: np.ndarray
+    mass: sp.csr_matrix
+
+    def energy(self, y: np.ndarray) -> float: ...
+
+    def evaluate(self, y: np.ndarray, order: int = 2) -> Evaluation: ...
+
+
+# ----------------------------------------------------------------------------- factorisation
+
+
+class NotFactorizable(RuntimeError):
+    """The matrix is singular to working precision."""
+
+
+@dataclass
+class Factor:
+    """Symmetric factorisation of A with its inertia (number of negative pivots)."""
+
+    solve: Callable[[np.ndarray], np.ndarray]
+    negative: int
+    n: int
+
+
+def factor(A: sp.spmatrix) -> Factor:
+    """L D L^T of a symmetric sparse matrix, with the count of negative eigenvalues.
+
+    Raises
+    ------
+    NotFactorizable
+        If A is singular (a zero pivot).
+    """
+    A = sp.csc_matrix(A)
+    d = np.abs(A.diagonal())
+    d[d == 0.0] = 1.0
+    s = 1.0 / np.sqrt(d)
+    S = sp.diags(s)
+    try:
+        lu = sla.splu((S @ A @ S).tocsc(), permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0,
+                      options={"SymmetricMode": True})
+    except RuntimeError as exc:
+        raise NotFactorizable(str(exc)) from None
+    if not np.array_equal(lu.perm_r, lu.perm_c):  # an off-diagonal pivot: inertia unknown
+        raise NotFactorizable("the factorisation needed off-diagonal pivots")
+    pivots = lu.U.diagonal()
+    if not np.all(np.isfinite(pivots)) or np.any(pivots == 0.0):
+        raise NotFactorizable("zero or non-finite pivot")
+    return Factor(lambda b: s * lu.solve(s * b), int(np.count_nonzero(pivots < 0)), A.shape[0])
+
+
+def positive_shift(K: sp.spmatrix, M: sp.spmatrix, start: float) -> tuple[float, Factor]:
+    """Smallest tried mu >= 0 (0, then start * 10^k) with K + mu M positive definite, and its factor."""
+    mu = 0.0
+    for _ in range(40):
+        try:
+            f = factor(K + mu * M if mu > 0 else K)
+            if f.negative == 0:
+                return mu, f
+        except NotFactorizable:
+            pass
+        mu = start if mu == 0.0 else 10.0 * mu
+    raise NotFactorizable("no shift made the tangent positive definite")
+
+
+def shift_scale(K: sp.spmatrix, M: sp.spmatrix) -> float:
+    """A small reference shift (N/mm^3): 1e-6 of the median stiffness-to-mass diagonal ratio."""
+    ratio = np.abs(K.diagonal()) / np.maximum(M.diagonal(), 1e-300)
+    return 1e-6 * float(np.median(ratio[ratio > 0])) if np.any(ratio > 0) else 1e-6
+
+
+def lowest_mode(K: sp.spmatrix, M: sp.spmatrix) -> tuple[float, np.ndarray]:
+    """Lowest eigenpair of K phi = omega M phi (omega in N/mm^3 for a mass per unit area)."""
+    start = shift_scale(K, M)
+    mu, f = positive_shift(K, M, start)
+    sigma = -max(mu, start)
+    if mu < -sigma:  # refactor at the shift actually used
+        f = factor(K - sigma * M)
+    op = sla.LinearOperator(K.shape, matvec=f.solve, dtype=float)
+    rng = np.random.default_rng(0)
+    w, v = sla.eigsh(K, k=1, M=M, sigma=sigma, which="LM", OPinv=op, v0=rng.standard_normal(K.shape[0]))
+    return float(w[0]), v[:, 0]
+
+
+# ----------------------------------------------------------------------------- Newton
+
+
+@dataclass
+class NewtonResult:
+    """Outcome of one Newton solve."""
+
+    y: np.ndarray
+    converged: bool
+    status: str  # 'converged', 'max_iterations', 'line_search', 'diverged'
+    iterations: int
+    residual: float
+    history: list[float] = field(default_factory=list)
+    energy: float = float("nan")
+    negative_pivots: int = -1  # of the tangent at the returned point (-1: not factorised)
+    shifted_steps: int = 0
+
+
+def residual_of(ev: Evaluation, free: np.ndarray) -> float:
+    """Largest free nodal force component / the problem's force scale."""
+    g = ev.gradient[free]
+    return float(np.max(np.abs(g)) / ev.force_scale) if g.size else 0.0
+
+
+def newton(problem: Problem, y0: np.ndarray, tol: float = 1e-10, max_iterations: int = 40
+           ) -> NewtonResult:
+    """Minimise ``problem``'s energy from ``y0`` over its free DOFs.
+
+    Converged when the largest free force component is below ``tol`` times the force scale.
+    """
+    free = problem.free
+    Mff = problem.mass[free][:, free].tocsc()
+    y = y0.copy()
+    history: list[float] = []
+    shifted = 0
+    start_shift = None
+    for it in range(max_iterations + 1):
+        ev = problem.evaluate(y, 2)
+        r = residual_of(ev, free)
+        history.append(r)
+        if not np.isfinite(r) or not np.isfinite(ev.total):
+            return NewtonResult(y, False, "diverged", it, r, history, ev.total, -1, shifted)
+        Kff = ev.tangent[free][:, free].tocsc()
+        if start_shift is None:
+            start_shift = shift_scale(Kff, Mff)
+        if r < tol:
+            try:
+                neg = factor(Kff).negative
+            except NotFactorizable:
+                neg = -1
+            return NewtonResult(y, True, "converged", it, r, history, ev.total, neg, shifted)
+        if it == max_iterations:
+            break
+        try:
+            mu, f = positive_shift(Kff, Mff, start_shift)
+        except NotFactorizable:
+            return NewtonResult(y, False, "diverged", it, r, history, ev.total, -1, shifted)
+        shifted += mu > 0
+        g = ev.gradient[free]
+        d = -f.solve(g)
+        slope = float(g @ d)
+        alpha, e0 = 1.0, ev.total
+        slack = 1e-12 * max(abs(e0), 1e-30)
+        for _ in range(40):
+            trial = y.copy()
+            trial[free] += alpha * d
+            e = problem.energy(trial)
+            if np.isfinite(e) and e <= e0 + 1e-4 * alpha * slope + slack:
+                break
+            alpha *= 0.5
+        else:
+            return NewtonResult(y, False, "line_search", it, r, history, e0, -1, shifted)
+        y = trial
+    return NewtonResult(y, False, "max_iterations", max_iterations, history[-1], history,
+                        ev.total, -1, shifted)

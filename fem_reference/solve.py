@@ -1,0 +1,356 @@
+"""Continuation in pre-stretch from the flat state, stability checks, and the ``Result`` of a state.
+
+Path: lambda = 1 is the flat, stress-free state. Each continuation step raises lambda by at most
+``MAX_STEP`` and solves by Newton from a secant predictor (the first step from the scene's
+smooth apex-up lift); a failed step is halved. Every converged state's tangent is checked: if it
+has a negative eigenvalue (the flat state loses stability almost at once), the state is pushed
+along the lowest eigenmode, apex up, and solved again, so only stable states are accepted.
+After each step the frame is checked for self-contact and the membrane for folds; the first one
+stops the path, with the pre-stretch located by bisection.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+from typing import Iterator, Sequence
+
+import numpy as np
+
+from results import ENERGY_KEYS, Result
+from scenes import Scene, SceneError
+
+from .contact import Contact, frame_contact, membrane_fold
+from .model import DemesProblem
+from .newton import NewtonResult, NotFactorizable, lowest_mode, newton
+from .output import blocks, compressed_fraction, slack_fraction
+
+FIRST_STEP = 0.02
+MAX_STEP = 0.05
+MIN_STEP = 1e-4
+TOLERANCE = 1e-8  # largest free nodal force / largest membrane nodal force (round-off floor ~1e-10)
+MAX_EIGEN_STEPS = 6
+CONTACT_BISECTIONS = 5
+
+
+@dataclass
+class StepRecord:
+    """One continuation step: its pre-stretch, Newton residual history and eigenmode steps."""
+
+    prestretch: float
+    iterations: int
+    residuals: list[float]
+    eigen_steps: int
+
+    def as_dict(self) -> dict:
+        return {"prestretch": self.prestretch, "iterations": self.iterations,
+                "residuals": self.residuals, "eigen_steps": self.eigen_steps}
+
+
+@dataclass
+class Outcome:
+    """Where the path got to for one requested pre-stretch."""
+
+    y: np.ndarray
+    prestretch: float
+    status: str
+    detail: str
+    records: list[StepRecord] = field(default_factory=list)
+    first_contact: tuple[float, float] | None = None  # (last free, first in contact) lambda
+    lowest_eigenvalue: float = float("nan")
+
+    @property
+    def converged(self) -> bool:
+        return self.status == "converged"
+
+
+def _neutral_tolerance(scene: Scene) -> float:
+    """Eigenvalues (N/mm^3) above minus this count as zero: 1e-6 of E h / side^2, far above
+    round-off and far below any physical out-of-plane stiffness of the film."""
+    return 1e-6 * scene.membrane.E * scene.membrane.thickness / scene.outline.side_length**2
+
+
+class Continuation:
+    """Follows the stable equilibrium path of a :class:`DemesProblem` in pre-stretch."""
+
+    def __init__(self, problem: DemesProblem):
+        self.problem = problem
+        self.scene = problem.scene
+        self.lam = 1.0
+        self.y = problem.reference()
+        self.previous: tuple[float, np.ndarray] | None = None
+        self.step = FIRST_STEP
+        self.neutral = _neutral_tolerance(self.scene)
+        self.apex = problem.mesh.frame_nodes[
+            np.argmin(np.abs(problem.mesh.frame_s - self.scene.outline.apex_arc_length()))]
+        self.lift = problem.initial_guess() - problem.reference()
+
+    # ------------------------------------------------------------------ one state
+    def _lowest(self, y: np.ndarray) -> tuple[float, np.ndarray]:
+        pb = self.problem
+        K = pb.evaluate(y, 2).tangent
+        f = pb.free
+        return lowest_mode(K[f][:, f].tocsc(), pb.mass[f][:, f].tocsc())
+
+    def _eigen_push(self, y: np.ndarray, phi_free: np.ndarray) -> np.ndarray | None:
+        """Step from saddle y along the mode, apex up, to where the energy is lower."""
+        pb = self.problem
+        phi = np.zeros(pb.n_dofs)
+        phi[pb.free] = phi_free
+        phi /= np.linalg.norm(phi.reshape(-1, 3), axis=1).max()
+        up = phi[3 * self.apex + 2]
+        sign = np.sign(up) if abs(up) > 1e-6 else np.sign(phi @ self.lift) or 1.0
+        phi *= sign
+        e0 = pb.energy(y)
+        alpha = 0.05 * self.scene.outline.side_length
+        for _ in range(30):
+            trial = y + alpha * phi
+            if pb.energy(trial) < e0 - 1e-12 * abs(e0):
+                return trial
+            alpha *= 0.5
+        return None
+
+    def solve_at(self, lam: float, start: np.ndarray) -> tuple[NewtonResult, int, float]:
+        """Stable equilibrium at ``lam`` from ``start``: Newton, then eigenmode steps while the
+        tangent has a negative eigenvalue. Returns the Newton result, the number of eigenmode
+        steps and the lowest eigenvalue checked (NaN when the factor showed none negative)."""
+        self.problem.lam = lam
+        nr = newton(self.problem, start, tol=TOLERANCE)
+        pushes, omega = 0, float("nan")
+        while nr.converged and nr.negative_pivots != 0:
+            try:
+                omega, phi = self._lowest(nr.y)
+            except NotFactorizable:
+                nr.status, nr.converged = "diverged", False
+                break
+            if omega > -self.neutral:
+                break  # a zero mode (slack film): neutral, not unstable
+            if pushes == MAX_EIGEN_STEPS:
+                nr.status, nr.converged = "unstable", False
+                break
+            pushed = self._eigen_push(nr.y, phi)
+            if pushed is None:
+                nr.status, nr.converged = "unstable", False
+                break
+            history = nr.history
+            nr = newton(self.problem, pushed, tol=TOLERANCE)
+            nr.history = history + nr.history
+            pushes += 1
+        return nr, pushes, omega
+
+    def contact(self, y: np.ndarray) -> Contact | None:
+        """Frame self-contact or a membrane fold at positions y, if any."""
+        pb = self.problem
+        x = y.reshape(-1, 3)
+        mesh = pb.mesh
+        found = frame_contact(x[mesh.frame_nodes], pb.held_chain, self.scene.frame.thickness)
+        return found or membrane_fold(x, mesh.cells[:, :3], mesh.linear.f2t)
+
+    # ------------------------------------------------------------------ the path
+    def _predictor(self, lam: float) -> np.ndarray:
+        if self.lam == 1.0:
+            return self.problem.initial_guess()
+        if self.previous is None:
+            return self.y
+        lam0, y0 = self.previous
+        return self.y + (self.y - y0) * (lam - self.lam) / (self.lam - lam0)
+
+    def _bisect_contact(self, bad: float) -> tuple[float, float]:
+        """Narrow the first contact between the current state and ``bad``; moves to the last
+        contact-free state found."""
+        for _ in range(CONTACT_BISECTIONS):
+            mid = 0.5 * (self.lam + bad)
+            nr, _, _ = self.solve_at(mid, self.y)
+            if nr.converged and self.contact(nr.y) is None:
+                self.previous, self.lam, self.y = (self.lam, self.y), mid, nr.y
+            else:
+                bad = mid
+        self.problem.lam = self.lam
+        return self.lam, bad
+
+    def advance(self, target: float) -> Outcome:
+        """Follow the path up to ``target``; stop early on failure or contact."""
+        records: list[StepRecord] = []
+        while self.lam < target - 1e-12:
+            lam = min(self.lam + self.step, target)
+            if target - lam < 0.25 * self.step:  # do not leave a sliver before the target
+                lam = target
+            nr, pushes, _ = self.solve_at(lam, self._predictor(lam))
+            if not nr.converged and self.lam > 1.0 and nr.status != "unstable":
+                nr, pushes, _ = self.solve_at(lam, self.y)  # retry without the secant
+            records.append(StepRecord(lam, nr.iterations, nr.history, pushes))
+            if not nr.converged:
+                self.step *= 0.5
+                if self.step >= MIN_STEP:
+                    continue
+                self.problem.lam = self.lam
+                return Outcome(self.y, self.lam, "unstable" if nr.status == "unstable" else
+                               ("max_iterations" if nr.status == "max_iterations" else "diverged"),
+                               f"Newton failed at lambda = {lam:.4f} ({nr.status}, residual "
+                               f"{nr.residual:.2e} after {nr.iterations} iterations) even with "
+                               f"steps below {MIN_STEP:g}", records)
+            found = self.contact(nr.y)
+            if found is not None:
+                free, bad = self._bisect_contact(lam)
+                return Outcome(self.y, self.lam, "self_contact",
+                               f"{found.describe()} at lambda = {lam:.4f}; first contact between "
+                               f"lambda = {free:.4f} and {bad:.4f}", records, (free, bad))
+            self.previous, self.lam, self.y = (self.lam, self.y), lam, nr.y
+            if nr.iterations <= 5:
+                self.step = min(1.5 * self.step, MAX_STEP)
+            elif nr.iterations > 12:
+                self.step *= 0.7
+        self.problem.lam = self.lam
+        return Outcome(self.y, self.lam, "converged", "", records)
+
+
+# ----------------------------------------------------------------------------- results
+
+
+def _check_prestretches(prestretches: Sequence[float]) -> list[float]:
+    try:
+        values = [float(v) for v in prestretches]
+    except (TypeError, ValueError):
+        raise SceneError("prestretches must be a list of pre-stretch ratios, e.g. [1.1, 1.3, 1.5]") from None
+    for v in values:
+        if not math.isfinite(v) or v < 1.0:
+            raise SceneError(f"pre-stretch {v!r} must be a finite ratio >= 1 (1.0 = none, 1.5 = 150 %)")
+    return sorted(values)
+
+
+def _quadratic_rates(records: list[StepRecord]) -> list[float]:
+    """log(r_k+1) / log(r_k) of the last two residuals of each step (2 = quadratic)."""
+    rates = []
+    for rec in records:
+        r = [v for v in rec.residuals if v > 0]
+        if len(r) >= 3 and r[-2] < 1e-2:
+            rates.append(float(np.log(r[-1] / r[-2]) / np.log(r[-2] / r[-3])))
+    return rates
+
+
+def make_result(problem: DemesProblem, out: Outcome, requested: float, wall: float,
+                steps_total: int) -> Result:
+    """The shared ``Result`` of a FEM state."""
+    scene = problem.scene
+    lam = out.prestretch
+    ev = problem.evaluate(out.y, 1)
+    energy = {k: ev.parts.get(k, 0.0) for k in ENERGY_KEYS if k != "total"}
+    energy["total"] = sum(energy.values())
+    residual = ev.gradient[problem.free]
+    residual = float(np.abs(residual).max() / ev.force_scale) if lam > 1.0 else 0.0
+    omega = float("nan")
+    if lam > 1.0:
+        try:
+            omega = Continuation(problem)._lowest(out.y)[0] if out.converged else float("nan")
+        except NotFactorizable:
+            pass
+    stable = bool(omega > -_neutral_tolerance(scene)) if np.isfinite(omega) else lam == 1.0
+    iterations = sum(r.iterations for r in out.records)
+    compressed = compressed_fraction(problem, out.y) if lam > 1.0 else 0.0
+    status, converged = out.status, out.converged
+    what = {"converged": "converged", "self_contact": "stopped at self-contact",
+            "unstable": "found no stable state", "max_iterations": "did not converge",
+            "diverged": "diverged"}[status]
+    message = (f"lambda = {lam:.3f}: {what}; relative residual {residual:.1e} after {iterations} "
+               f"Newton iterations in {len(out.records)} continuation steps")
+    if out.detail:
+        message += f"; {out.detail}"
+    if converged:
+        message += (f"; {'stable' if stable else 'UNSTABLE'} (lowest eigenvalue {omega:.3g} N/mm^3)"
+                    if lam > 1.0 else "; the flat state")
+    if scene.membrane.law == "neo-hookean" and compressed > 0.01:
+        status, converged = "compression", False
+        message += (f"; the neo-Hookean film is in compression over {100 * compressed:.1f} % of its "
+                    "area: it would wrinkle, which this membrane model does not represent")
+    if lam < requested - 1e-12:
+        message += f"; the requested lambda = {requested:.3f} was not reached"
+    mesh = problem.mesh
+    info = {
+        "newton": [r.as_dict() for r in out.records],
+        "newton_rates": _quadratic_rates(out.records),
+        "lowest_eigenvalue_N_per_mm3": omega,
+        "stable": stable,
+        "continuation_steps": len(out.records),
+        "continuation_steps_total": steps_total,
+        "n_dofs": problem.n_dofs,
+        "n_free_dofs": int(problem.free.size),
+        "n_elements": int(mesh.cells.shape[0]),
+        "refinement": int(round(np.log2(scene.spacing / mesh.spacing))),
+        "element": mesh.element,
+        "mesh_size_mm": mesh.spacing,
+        "frame_model": scene.frame.model,
+        "film_offset_mm": problem.offset,
+        "director_lever_mm": 0.5 * scene.frame.width,
+        "compressed_area_fraction": compressed,
+        "slack_area_fraction": slack_fraction(problem, out.y) if lam > 1.0 else 0.0,
+        "requested_prestretch": requested,
+    }
+    if out.first_contact is not None:
+        info["first_contact_prestretch"] = out.first_contact
+    return Result(
+        solver="fem",
+        x=out.y.reshape(-1, 3).copy(),
+        x0=problem.X.copy(),
+        converged=converged,
+        status=status,
+        message=message,
+        iterations=iterations,
+        residual=residual,
+        wall_time=wall,
+        energy=energy,
+        residual_history=np.array([v for r in out.records for v in r.residuals]),
+        prestretch=lam,
+        frame_nodes=mesh.frame_nodes.copy(),
+        frame_s=mesh.frame_s.copy(),
+        scene=scene if lam == scene.prestretch else scene.updated(prestretch=lam),
+        blocks=blocks(problem, out.y),
+        point_data={},
+        info=info,
+    )
+
+
+def _refinement(scene: Scene, refinement: int | None) -> int:
+    if not isinstance(scene, Scene):
+        raise SceneError(f"expected a scenes.Scene, got {type(scene).__name__}; use scenes.load(...)")
+    return scene.fem.refinement if refinement is None else refinement
+
+
+def sweep(scene: Scene, prestretches: Sequence[float], refinement: int | None = None
+          ) -> Iterator[Result]:
+    """States at increasing pre-stretch, one continuation path from the flat state.
+
+    Parameters
+    ----------
+    scene
+        The DEMES scene; ``scene.fem.element`` picks P1 or P2.
+    prestretches
+        Pre-stretch ratios (>= 1), solved in increasing order.
+    refinement
+        Times the element size is halved (default ``scene.fem.refinement``).
+
+    Yields
+    ------
+    Result
+        One per requested pre-stretch, until the path stops (contact, no convergence): the
+        state that stopped it is yielded with its status and nothing after it. ``iterations`` and
+        ``wall_time`` count the work since the previous state.
+    """
+    lams = _check_prestretches(prestretches)
+    problem = DemesProblem(scene, _refinement(scene, refinement), scene.fem.element)
+    path = Continuation(problem)
+    steps = 0
+    for lam in lams:
+        t0 = time.perf_counter()
+        out = path.advance(lam)
+        steps += len(out.records)
+        res = make_result(problem, out, lam, 0.0, steps)
+        res.wall_time = time.perf_counter() - t0
+        yield res
+        if not out.converged:
+            return
+
+
+def solve(scene: Scene, refinement: int | None = None) -> Result:
+    """Equilibrium at ``scene.prestretch`` (continuation from the flat state inside)."""
+    return next(iter(sweep(scene, [scene.prestretch], refinement)))
