@@ -74,16 +74,22 @@ def frame_contact(x: np.ndarray, held: np.ndarray, threshold: float) -> Contact 
 
 
 def membrane_fold(x: np.ndarray, triangles: np.ndarray, facet_triangles: np.ndarray,
-                  cos_limit: float = -0.5) -> Contact | None:
+                  taut: np.ndarray | None = None, cos_limit: float = -0.5) -> Contact | None:
     """Adjacent triangles (vertex positions x) whose normals turn by more than 120 deg.
 
-    ``facet_triangles`` is (2, nf) with -1 on the boundary (scikit-fem's ``f2t``).
+    ``facet_triangles`` is (2, nf) with -1 on the boundary (scikit-fem's ``f2t``); with ``taut``
+    (per triangle) only pairs of taut triangles count.
     """
     p = x[triangles]
     n = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
     n /= np.maximum(np.linalg.norm(n, axis=1), 1e-300)[:, None]
     inner = facet_triangles[1] >= 0
     t1, t2 = facet_triangles[0, inner], facet_triangles[1, inner]
+    if taut is not None:
+        keep = taut[t1] & taut[t2]
+        t1, t2 = t1[keep], t2[keep]
+        if t1.size == 0:
+            return None
     cos = np.einsum("ij,ij->i", n[t1], n[t2])
     k = int(np.argmin(cos))
     if cos[k] >= cos_limit:

@@ -96,10 +96,11 @@ class DemesProblem:
         return self.mesh.interpolation(points)
 
     # ------------------------------------------------------------------ states
-    def initial_guess(self) -> np.ndarray:
-        """Flat reference with the scene's symmetry-breaking lift; the film at z = d inside."""
+    def initial_guess(self, lift: bool = True) -> np.ndarray:
+        """Flat reference with (``lift``) the scene's symmetry-breaking lift; the film at z = d."""
         x = self.X.copy()
-        x[:, 2] += self.scene.initial_lift(self.X[:, :2])
+        if lift:
+            x[:, 2] += self.scene.initial_lift(self.X[:, :2])
         x[~self.held, 2] += self.offset
         x[self.mesh.frame_nodes[~self.held_chain], 2] -= self.offset
         return x.ravel()

@@ -80,14 +80,17 @@ def factor(A: sp.spmatrix) -> Factor:
     return Factor(lambda b: s * lu.solve(s * b), int(np.count_nonzero(pivots < 0)), A.shape[0])
 
 
-def positive_shift(K: sp.spmatrix, M: sp.spmatrix, start: float) -> tuple[float, Factor]:
-    """Smallest tried mu >= 0 (0, then start * 10^k) with K + mu M positive definite, and its factor."""
-    mu = 0.0
+def positive_shift(K: sp.spmatrix, M: sp.spmatrix, start: float) -> tuple[float, Factor, int]:
+    """Smallest tried mu >= 0 (0, then start * 10^k) with K + mu M positive definite, its factor,
+    and the number of negative eigenvalues of K itself (-1 if K is singular)."""
+    mu, negative = 0.0, -1
     for _ in range(40):
         try:
             f = factor(K + mu * M if mu > 0 else K)
+            if mu == 0.0:
+                negative = f.negative
             if f.negative == 0:
-                return mu, f
+                return mu, f, negative
         except NotFactorizable:
             pass
         mu = start if mu == 0.0 else 10.0 * mu
@@ -103,7 +106,7 @@ def shift_scale(K: sp.spmatrix, M: sp.spmatrix) -> float:
 def lowest_mode(K: sp.spmatrix, M: sp.spmatrix) -> tuple[float, np.ndarray]:
     """Lowest eigenpair of K phi = omega M phi (omega in N/mm^3 for a mass per unit area)."""
     start = shift_scale(K, M)
-    mu, f = positive_shift(K, M, start)
+    mu, f, _ = positive_shift(K, M, start)
     sigma = -max(mu, start)
     if mu < -sigma:  # refactor at the shift actually used
         f = factor(K - sigma * M)
@@ -122,7 +125,7 @@ class NewtonResult:
 
     y: np.ndarray
     converged: bool
-    status: str  # 'converged', 'max_iterations', 'line_search', 'diverged'
+    status: str  # 'converged', 'saddle', 'max_iterations', 'line_search', 'diverged'
     iterations: int
     residual: float
     history: list[float] = field(default_factory=list)
@@ -137,11 +140,13 @@ def residual_of(ev: Evaluation, free: np.ndarray) -> float:
     return float(np.max(np.abs(g)) / ev.force_scale) if g.size else 0.0
 
 
-def newton(problem: Problem, y0: np.ndarray, tol: float = 1e-10, max_iterations: int = 40
-           ) -> NewtonResult:
+def newton(problem: Problem, y0: np.ndarray, tol: float = 1e-10, max_iterations: int = 40,
+           saddle: float = 0.0) -> NewtonResult:
     """Minimise ``problem``'s energy from ``y0`` over its free DOFs.
 
     Converged when the largest free force component is below ``tol`` times the force scale.
+    With ``saddle`` > 0 it stops (status 'saddle') when the residual is below ``saddle`` while
+    the tangent is indefinite, so that the caller can step off along the unstable mode.
     """
     free = problem.free
     Mff = problem.mass[free][:, free].tocsc()
@@ -167,9 +172,12 @@ def newton(problem: Problem, y0: np.ndarray, tol: float = 1e-10, max_iterations:
         if it == max_iterations:
             break
         try:
-            mu, f = positive_shift(Kff, Mff, start_shift)
+            mu, f, negative = positive_shift(Kff, Mff, start_shift)
         except NotFactorizable:
             return NewtonResult(y, False, "diverged", it, r, history, ev.total, -1, shifted)
+        if negative != 0 and r < saddle:
+            # closing in on a saddle: a shifted Newton creeps along its unstable direction
+            return NewtonResult(y, False, "saddle", it, r, history, ev.total, negative, shifted)
         shifted += mu > 0
         g = ev.gradient[free]
         d = -f.solve(g)

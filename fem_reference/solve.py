@@ -26,8 +26,11 @@ from .model import DemesProblem
 from .newton import NewtonResult, NotFactorizable, lowest_mode, newton
 from .output import blocks, compressed_fraction, slack_fraction
 
-FIRST_STEP = 0.02
+FIRST_STEP = 0.01
 MAX_STEP = 0.05
+MAX_NEWTON = 100
+SNAP_ITERATIONS = 600  # a snap-through is a long way for Newton with line search
+SADDLE = 1e-4  # residual below which an indefinite tangent means a saddle is near
 MIN_STEP = 1e-4
 TOLERANCE = 1e-8  # largest free nodal force / largest membrane nodal force (round-off floor ~1e-10)
 MAX_EIGEN_STEPS = 6
@@ -58,6 +61,7 @@ class Outcome:
     detail: str
     records: list[StepRecord] = field(default_factory=list)
     first_contact: tuple[float, float] | None = None  # (last free, first in contact) lambda
+    snaps: list[tuple[float, float]] = field(default_factory=list)  # limit points jumped
     lowest_eigenvalue: float = float("nan")
 
     @property
@@ -84,7 +88,9 @@ class Continuation:
         self.neutral = _neutral_tolerance(self.scene)
         self.apex = problem.mesh.frame_nodes[
             np.argmin(np.abs(problem.mesh.frame_s - self.scene.outline.apex_arc_length()))]
-        self.lift = problem.initial_guess() - problem.reference()
+        self.lift = problem.initial_guess() - problem.initial_guess(lift=False)
+        self.snaps: list[tuple[float, float]] = []  # (last state on the branch, state snapped to)
+        self.up = np.sign(self.scene.perturbation.amplitude) or 1.0  # + : apex up
 
     # ------------------------------------------------------------------ one state
     def _lowest(self, y: np.ndarray) -> tuple[float, np.ndarray]:
@@ -100,7 +106,7 @@ class Continuation:
         phi[pb.free] = phi_free
         phi /= np.linalg.norm(phi.reshape(-1, 3), axis=1).max()
         up = phi[3 * self.apex + 2]
-        sign = np.sign(up) if abs(up) > 1e-6 else np.sign(phi @ self.lift) or 1.0
+        sign = np.sign(up) * self.up if abs(up) > 1e-6 else np.sign(phi @ self.lift) or 1.0
         phi *= sign
         e0 = pb.energy(y)
         alpha = 0.05 * self.scene.outline.side_length
@@ -111,20 +117,30 @@ class Continuation:
             alpha *= 0.5
         return None
 
-    def solve_at(self, lam: float, start: np.ndarray) -> tuple[NewtonResult, int, float]:
+    def _apex_up(self, y: np.ndarray) -> float:
+        """Apex height (mm) times the sign the perturbation asks for."""
+        return float(y[3 * self.apex + 2] - self.problem.X[self.apex, 2]) * self.up
+
+    def solve_at(self, lam: float, start: np.ndarray, max_iterations: int = 0
+                 ) -> tuple[NewtonResult, int, float]:
         """Stable equilibrium at ``lam`` from ``start``: Newton, then eigenmode steps while the
         tangent has a negative eigenvalue. Returns the Newton result, the number of eigenmode
         steps and the lowest eigenvalue checked (NaN when the factor showed none negative)."""
         self.problem.lam = lam
-        nr = newton(self.problem, start, tol=TOLERANCE)
+        its = max_iterations or MAX_NEWTON
+        nr = newton(self.problem, start, tol=TOLERANCE, max_iterations=its, saddle=SADDLE)
         pushes, omega = 0, float("nan")
-        while nr.converged and nr.negative_pivots != 0:
+        while (nr.converged and nr.negative_pivots != 0) or nr.status == "saddle":
             try:
                 omega, phi = self._lowest(nr.y)
             except NotFactorizable:
                 nr.status, nr.converged = "diverged", False
                 break
             if omega > -self.neutral:
+                if nr.status == "saddle":  # only neutral modes: carry on with plain Newton
+                    history = nr.history
+                    nr = newton(self.problem, nr.y, tol=TOLERANCE, max_iterations=its)
+                    nr.history = history + nr.history
                 break  # a zero mode (slack film): neutral, not unstable
             if pushes == MAX_EIGEN_STEPS:
                 nr.status, nr.converged = "unstable", False
@@ -134,7 +150,7 @@ class Continuation:
                 nr.status, nr.converged = "unstable", False
                 break
             history = nr.history
-            nr = newton(self.problem, pushed, tol=TOLERANCE)
+            nr = newton(self.problem, pushed, tol=TOLERANCE, max_iterations=its, saddle=SADDLE)
             nr.history = history + nr.history
             pushes += 1
         return nr, pushes, omega
@@ -145,11 +161,16 @@ class Continuation:
         x = y.reshape(-1, 3)
         mesh = pb.mesh
         found = frame_contact(x[mesh.frame_nodes], pb.held_chain, self.scene.frame.thickness)
-        return found or membrane_fold(x, mesh.cells[:, :3], mesh.linear.f2t)
+        if found is not None:
+            return found
+        # a slack film has no stiffness and its wrinkles are arbitrary: only taut folds count
+        tension = pb.membrane.principal_tensions(pb.film_positions(y), pb.lam)[0][0].mean(axis=1)
+        taut = tension > 1e-3 * tension.max()
+        return membrane_fold(x, mesh.cells[:, :3], mesh.linear.f2t, taut)
 
     # ------------------------------------------------------------------ the path
     def _predictor(self, lam: float) -> np.ndarray:
-        if self.lam == 1.0:
+        if self.lam == 1.0:  # the scene's lift, as the DR starts
             return self.problem.initial_guess()
         if self.previous is None:
             return self.y
@@ -177,8 +198,16 @@ class Continuation:
             if target - lam < 0.25 * self.step:  # do not leave a sliver before the target
                 lam = target
             nr, pushes, _ = self.solve_at(lam, self._predictor(lam))
-            if not nr.converged and self.lam > 1.0 and nr.status != "unstable":
-                nr, pushes, _ = self.solve_at(lam, self.y)  # retry without the secant
+            if not nr.converged or (self.lam == 1.0 and self._apex_up(nr.y) < 0):
+                # retry: without the secant; or, off the lift, from the flat state, whose
+                # instability is met by an eigenmode step (apex up)
+                retry = self.problem.initial_guess(lift=False) if self.lam == 1.0 else self.y
+                nr, pushes, _ = self.solve_at(lam, retry)
+            if not nr.converged and self.step < 2 * MIN_STEP:
+                # the branch ends (a limit point): look for the state it snaps to
+                nr, pushes, _ = self.solve_at(lam, self.y, SNAP_ITERATIONS)
+                if nr.converged:
+                    self.snaps.append((self.lam, lam))
             records.append(StepRecord(lam, nr.iterations, nr.history, pushes))
             if not nr.converged:
                 self.step *= 0.5
@@ -224,7 +253,7 @@ def _quadratic_rates(records: list[StepRecord]) -> list[float]:
     rates = []
     for rec in records:
         r = [v for v in rec.residuals if v > 0]
-        if len(r) >= 3 and r[-2] < 1e-2:
+        if len(r) >= 3 and r[-2] < 1e-2 and r[-2] != r[-3]:
             rates.append(float(np.log(r[-1] / r[-2]) / np.log(r[-2] / r[-3])))
     return rates
 
@@ -263,6 +292,9 @@ def make_result(problem: DemesProblem, out: Outcome, requested: float, wall: flo
         status, converged = "compression", False
         message += (f"; the neo-Hookean film is in compression over {100 * compressed:.1f} % of its "
                     "area: it would wrinkle, which this membrane model does not represent")
+    if out.snaps:
+        message += "; snapped through at " + ", ".join(
+            f"lambda = {a:.4f} -> {b:.4f}" for a, b in out.snaps) + " (end of the branch)"
     if lam < requested - 1e-12:
         message += f"; the requested lambda = {requested:.3f} was not reached"
     mesh = problem.mesh
@@ -288,6 +320,8 @@ def make_result(problem: DemesProblem, out: Outcome, requested: float, wall: flo
     }
     if out.first_contact is not None:
         info["first_contact_prestretch"] = out.first_contact
+    if out.snaps:
+        info["snaps"] = out.snaps
     return Result(
         solver="fem",
         x=out.y.reshape(-1, 3).copy(),
@@ -342,7 +376,9 @@ def sweep(scene: Scene, prestretches: Sequence[float], refinement: int | None = 
     steps = 0
     for lam in lams:
         t0 = time.perf_counter()
+        snapped = len(path.snaps)
         out = path.advance(lam)
+        out.snaps = path.snaps[snapped:]
         steps += len(out.records)
         res = make_result(problem, out, lam, 0.0, steps)
         res.wall_time = time.perf_counter() - t0
