@@ -1,0 +1,136 @@
+"""Checks that stop a relaxation with a named reason: frame self-contact, membrane folds.
+
+Each check is called between chunks of time steps with the real node positions and returns
+None or a message. ``budget`` (mm) is how far the fastest node may travel between two checks
+so that nothing can pass through something else unseen.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+
+@njit(cache=True, error_model="numpy")
+def _segment_distance(p1, q1, p2, q2):
+    """Smallest distance between segments p1-q1 and p2-q2 (clamped closest points)."""
+    d1 = q1 - p1
+    d2 = q2 - p2
+    r = p1 - p2
+    a = d1 @ d1
+    e = d2 @ d2
+    f = d2 @ r
+    c = d1 @ r
+    b = d1 @ d2
+    den = a * e - b * b
+    s = 0.0
+    if den > 1e-12 * a * e:
+        s = min(max((b * f - c * e) / den, 0.0), 1.0)
+    t = (b * s + f) / e
+    if t < 0.0:
+        t = 0.0
+        s = min(max(-c / a, 0.0), 1.0)
+    elif t > 1.0:
+        t = 1.0
+        s = min(max((b - c) / a, 0.0), 1.0)
+    w = p1 + s * d1 - p2 - t * d2
+    return math.sqrt(w @ w)
+
+
+@njit(cache=True, error_model="numpy")
+def closest_segments(x, seg, closed):
+    """Closest pair of non-neighbouring segments of a chain: (distance, a, b)."""
+    k = seg.shape[0]
+    best, ba, bb = np.inf, -1, -1
+    for a in range(k):
+        for b in range(a + 2, k):
+            if closed and a == 0 and b == k - 1:
+                continue
+            d = _segment_distance(x[seg[a, 0]], x[seg[a, 1]], x[seg[b, 0]], x[seg[b, 1]])
+            if d < best:
+                best, ba, bb = d, a, b
+    return best, ba, bb
+
+
+@njit(cache=True, error_model="numpy")
+def most_folded(x, tri, pairs):
+    """Smallest cosine between normals of adjacent triangles, and that pair's index."""
+    worst, where = 2.0, -1
+    for k in range(pairs.shape[0]):
+        t1, t2 = tri[pairs[k, 0]], tri[pairs[k, 1]]
+        n1 = np.cross(x[t1[1]] - x[t1[0]], x[t1[2]] - x[t1[0]])
+        n2 = np.cross(x[t2[1]] - x[t2[0]], x[t2[2]] - x[t2[0]])
+        l1, l2 = math.sqrt(n1 @ n1), math.sqrt(n2 @ n2)
+        if l1 == 0.0 or l2 == 0.0:
+            return -1.0, k  # a triangle collapsed to a line: nodes have met
+        c = (n1 @ n2) / (l1 * l2)
+        if c < worst:
+            worst, where = c, k
+    return worst, where
+
+
+class FrameContact:
+    """Stops when two non-neighbouring frame segments come closer than ``distance`` mm.
+
+    Parameters
+    ----------
+    chain
+        Frame node indices in order; ``closed`` joins the last to the first.
+    distance
+        Contact distance (the strip thickness: two strip faces touch), mm.
+    """
+
+    def __init__(self, chain: np.ndarray, distance: float, closed: bool = True) -> None:
+        c = np.asarray(chain, dtype=np.int64)
+        nxt = np.roll(c, -1) if closed else c[1:]
+        self.segments = np.stack([c[: nxt.size], nxt], axis=1)
+        self.nodes = c
+        self.closed = closed
+        self.distance = float(distance)
+        self.budget = 0.5 * self.distance
+
+    def __call__(self, x: np.ndarray) -> str | None:
+        d, a, b = closest_segments(x, self.segments, self.closed)
+        if d >= self.distance:
+            return None
+        i, j = self.segments[a, 0], self.segments[b, 0]
+        return (
+            f"frame self-contact: segments at nodes {i} and {j} are {d:.3g} mm apart "
+            f"(contact at {self.distance:.3g} mm), near ({x[i, 0]:.1f}, {x[i, 1]:.1f}, {x[i, 2]:.1f}) mm"
+        )
+
+
+class MembraneFold:
+    """Stops when the membrane folds over (adjacent triangles face opposite ways) or nodes meet.
+
+    ``triangles`` must be consistently oriented; ``cos_limit`` is the cosine between adjacent
+    normals below which the surface counts as folded (-0.5: more than 120 deg between them).
+    """
+
+    budget = np.inf
+
+    def __init__(self, triangles: np.ndarray, cos_limit: float = -0.5) -> None:
+        tri = np.asarray(triangles, dtype=np.int64)
+        edges: dict[tuple[int, int], int] = {}
+        pairs = []
+        for t, (a, b, c) in enumerate(tri):
+            for e in ((a, b), (b, c), (c, a)):
+                key = (min(e), max(e))
+                if key in edges:
+                    pairs.append((edges[key], t))
+                else:
+                    edges[key] = t
+        self.triangles = tri
+        self.pairs = np.array(pairs, dtype=np.int64).reshape(-1, 2)
+        self.cos_limit = cos_limit
+
+    def __call__(self, x: np.ndarray) -> str | None:
+        c, k = most_folded(x, self.triangles, self.pairs)
+        if c >= self.cos_limit:
+            return None
+        t = self.triangles[self.pairs[k, 0]]
+        p = x[t].mean(axis=0)
+        what = "nodes met (a triangle collapsed)" if c == -1.0 else f"adjacent triangles at {np.degrees(np.arccos(c)):.0f} deg"
+        return f"membrane folded over: {what} near ({p[0]:.1f}, {p[1]:.1f}, {p[2]:.1f}) mm"

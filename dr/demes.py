@@ -1,0 +1,193 @@
+"""DR model of a DEMES scene, as the paper built it: ``solve`` one state, ``sweep`` pre-stretch."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Iterator, Sequence
+
+import numpy as np
+from scipy.spatial import cKDTree
+
+from results import Result
+from scenes import Scene, SceneError
+
+from .contact import FrameContact, MembraneFold
+from .model import Model
+from .net import Net, build_net
+from .relax import relax
+
+
+@dataclass
+class DemesModel:
+    """A scene's DR model and what the result needs to know about it."""
+
+    model: Model
+    net: Net
+    start: np.ndarray  # (n, 3) initial positions with the symmetry-breaking lift, mm
+    checks: list
+    final_checks: list
+    mirror: np.ndarray | None  # node index of each node's mirror image (x -> -x), if symmetric
+    cable_area: float  # mm^2
+
+
+def cable_area(scene: Scene, spacing: float) -> float:
+    """Cable area (mm^2) that makes the net a film of the scene's thickness: A = sqrt(3)/2 h s.
+
+    A triangular net of links EA at spacing s is, for small strains, an isotropic membrane
+    with E t = 2/sqrt(3) EA/s and Poisson's ratio 1/3 (DESIGN.md).
+    """
+    return np.sqrt(3) / 2 * scene.membrane.thickness * spacing
+
+
+def build(scene: Scene, prestretch: float | None = None) -> DemesModel:
+    """Build the DR model of ``scene`` at ``prestretch`` (default: the scene's)."""
+    lam = scene.prestretch if prestretch is None else float(prestretch)
+    if lam < 1.0:
+        raise SceneError(f"pre-stretch {lam:g} is below 1: it is a stretch ratio (1.5 = 150 %)")
+    if scene.membrane.law != "linear":
+        raise SceneError(
+            f"membrane.law = {scene.membrane.law!r}: the DR net models the 'linear' (Hookean cable) "
+            "law only; use the FEM reference for 'neo-hookean'"
+        )
+    outline = scene.outline
+    s_right, s_left = scene.base_region()
+    clamps = scene.clamps()
+    landmarks = [0.0, outline.apex_arc_length(), s_right, s_left, *outline.breakpoints()]
+    net = build_net(outline, scene.mesh.divisions, landmarks)
+    nf = net.n_frame
+    fs = net.frame_s
+    held = (fs <= s_right + 1e-9) | (fs >= s_left - 1e-9)
+    frame = scene.frame
+    d = frame.film_offset_distance
+
+    nodes = net.nodes.copy()
+    nodes[nf:, 2] = d  # with the film on one face, the membrane lies at the film's plane
+    # held frame nodes with a film offset carry their cable ends on a pinned attachment node
+    attach = np.arange(nf)
+    extra = []
+    if d != 0.0:
+        for k in np.flatnonzero(held):
+            attach[k] = nodes.shape[0] + len(extra)
+            extra.append(nodes[k] + [0.0, 0.0, d])
+    if extra:
+        nodes = np.vstack([nodes, extra])
+    m = Model(nodes)
+    m.triangles = net.triangles
+    m.support(np.flatnonzero(held))
+    if extra:
+        m.support(np.arange(net.nodes.shape[0], nodes.shape[0]))
+
+    # frame: the free part between the clamps ('taped'), or the whole loop ('pinned')
+    inner = net.edge_inner_nodes()
+    if clamps:
+        r, l = net.frame_node_at(clamps[0][0]), net.frame_node_at(clamps[1][0])
+        chain = np.arange(r, l + 1)
+        orientation = inner[r:l]
+        for (s_c, tangent), node in zip(clamps, (r, l)):
+            m.clamp(node, tangent, taped=True)
+        closed = False
+    else:
+        chain, orientation, closed = np.arange(nf), inner, True
+    strip = frame.model == "strip"
+    m.add_beam(
+        chain,
+        EI=frame.EI,
+        EA=frame.EA,
+        EI_strong=frame.EI_strong if strip else None,
+        GJ=frame.GJ if strip else None,
+        orientation=orientation if (strip or d != 0.0) else None,
+        closed=closed,
+    )
+    if d != 0.0:
+        for k in chain if closed else chain[1:-1]:
+            attach[k] = m.offset_node(k, d)
+
+    # membrane: lattice lines as clustered cables (the paper) or one link per segment
+    area = cable_area(scene, net.spacing)
+    EA = scene.membrane.E * area
+    tension_only = scene.membrane.tension_only
+    for cable in net.cables:
+        c = cable.copy()
+        c[0], c[-1] = attach[c[0]], attach[c[-1]]
+        flat = np.linalg.norm(np.diff(net.nodes[cable], axis=0), axis=1)
+        if scene.dr.membrane_net == "clustered":
+            m.add_cluster(c, EA, rest_length=flat.sum() / lam, tension_only=tension_only)
+        else:
+            m.add_link(c[:-1], c[1:], EA, rest_length=flat / lam, tension_only=tension_only)
+
+    start = nodes.copy()
+    start[:, 2] += scene.initial_lift(nodes[:, :2])
+    checks: list = []
+    final_checks: list = []
+    if scene.dr.check_contact:
+        checks = [FrameContact(np.arange(nf), frame.thickness)]
+        final_checks = [MembraneFold(net.triangles)]
+    return DemesModel(m, net, start, checks, final_checks, _mirror_map(nodes), area)
+
+
+def _mirror_map(nodes: np.ndarray) -> np.ndarray | None:
+    """Index of each node's mirror image across x = 0, or None if the model is not symmetric."""
+    dist, idx = cKDTree(nodes).query(nodes * [-1.0, 1.0, 1.0])
+    scale = np.ptp(nodes[:, 0]) or 1.0
+    return idx if np.all(dist < 1e-9 * scale) else None
+
+
+def asymmetry(x: np.ndarray, mirror: np.ndarray) -> float:
+    """Largest distance between a node and the mirror image of its mirror node, mm."""
+    return float(np.max(np.linalg.norm(x - x[mirror] * [-1.0, 1.0, 1.0], axis=1)))
+
+
+def solve(scene: Scene, prestretch: float | None = None, x_start: np.ndarray | None = None,
+          progress: bool = False) -> Result:
+    """Equilibrium of ``scene`` by dynamic relaxation (the paper's model).
+
+    Parameters
+    ----------
+    prestretch
+        Pre-stretch ratio (default ``scene.prestretch``).
+    x_start
+        Start positions (n, 3) mm, e.g. a neighbouring state (default: flat plus the scene's lift).
+    """
+    lam = scene.prestretch if prestretch is None else float(prestretch)
+    dm = build(scene, lam)
+    st = scene.dr
+    res = relax(
+        dm.model, tol=st.tolerance, mass_safety=st.mass_safety, max_iterations=st.max_iterations,
+        x_start=dm.start if x_start is None else x_start, checks=dm.checks,
+        final_checks=dm.final_checks, progress=progress,
+    )
+    res.scene = scene if lam == scene.prestretch else scene.updated(prestretch=lam)
+    res.prestretch = lam
+    res.frame_nodes = np.arange(dm.net.n_frame)
+    res.frame_s = dm.net.frame_s
+    res.message = f"lambda = {lam:.3f}: {res.message}"
+    res.info.update(
+        n_nodes=dm.model.n,
+        n_frame_nodes=dm.net.n_frame,
+        n_cables=len(dm.net.cables),
+        spacing_mm=dm.net.spacing,
+        cable_area_mm2=dm.cable_area,
+        membrane_net=st.membrane_net,
+        frame_model=scene.frame.model,
+    )
+    if dm.mirror is not None:
+        asym = asymmetry(res.x, dm.mirror)
+        res.info["asymmetry_mm"] = asym
+        if scene.perturbation.asymmetry == 0.0 and asym > 1e-3 * scene.outline.side_length:
+            res.message += f"; the mirror symmetry broke (asymmetry {asym:.3g} mm)"
+    return res
+
+
+def sweep(scene: Scene, prestretches: Sequence[float], progress: bool = False) -> Iterator[Result]:
+    """States at increasing pre-stretch, each started from the last converged one.
+
+    A state that stops (contact, divergence, no convergence) is yielded as it is, and the next
+    one starts again from the last converged state.
+    """
+    lams = sorted(float(v) for v in prestretches)
+    x_prev = None
+    for lam in lams:
+        res = solve(scene, lam, x_start=x_prev, progress=progress)
+        if res.converged:
+            x_prev = res.x
+        yield res

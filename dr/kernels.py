@@ -1,0 +1,526 @@
+"""Compiled element kernels: energy gradients (forces), energies and stiffness for the masses.
+
+Everything acts on an extended position array X = [real nodes; virtual nodes]. Virtual nodes
+are positions derived from real ones:
+
+- ghosts (moving clamp ghosts): the mirror image of a beam's second node across the plane
+  through the clamped node normal to the clamped tangent (second-order clamp, DESIGN.md);
+- offsets: a frame node moved by a signed distance along the strip normal, where the film is
+  bonded on one face of the strip (the membrane then acts t/2 off the centreline).
+
+Kernels accumulate the energy gradient G = dE/dX; the residual is R = loads - G after the
+virtual-node gradients are pulled back onto the real nodes (chain rule), so every node that a
+virtual node or a strip orientation depends on gets its reaction.
+
+Frame geometry of a frame node j is described by five indices (prev, j, next, m1, m2): its two
+neighbours along the frame and, for the edges (prev, j) and (j, next), a membrane node that
+fixes the strip plane. Edge normal n = unit(d x w), d the edge vector, w from the edge start to
+the membrane node. m < 0 marks an edge whose normal is fixed to +z (a taped clamp).
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+from numba import njit
+
+from .vec import add, add_to, axpy, cross, dot, get, norm, scale, sub, unit_vjp
+
+Z_AXIS = (0.0, 0.0, 1.0)
+Z0 = (0.0, 0.0, 0.0)
+
+# columns of Packed.strip_par (LBAR: rest length attributed to the node, mm)
+KB, KT, EIW, EIS, GJ, KW0, KN0, TAU0, LBAR = range(9)
+
+
+class Packed(NamedTuple):
+    """Element arrays of a model, as the kernels take them (see :class:`dr.Model`)."""
+
+    n: int  # real nodes
+    ghost_src: np.ndarray  # (g,) node mirrored
+    ghost_clamp: np.ndarray  # (g,) clamped node
+    ghost_t: np.ndarray  # (g, 3) unit clamped tangent
+    off_geo: np.ndarray  # (o, 5) frame geometry indices of the offset node's frame node
+    off_d: np.ndarray  # (o,) signed offset along the strip normal, mm
+    link_ij: np.ndarray  # (l, 2)
+    link_EA: np.ndarray  # N
+    link_L0: np.ndarray  # mm
+    link_tension_only: np.ndarray  # bool
+    link_frame: np.ndarray  # bool: frame axial (True) or membrane (False), for the energy split
+    clu_ptr: np.ndarray  # (c+1,) into clu_nodes
+    clu_nodes: np.ndarray  # chains, concatenated
+    clu_EA: np.ndarray  # N
+    clu_L0: np.ndarray  # mm, rest length of the whole cable
+    clu_tension_only: np.ndarray  # bool
+    clu_seg: np.ndarray  # (s, 2) cable segments (node pairs), all clusters
+    clu_seg_cluster: np.ndarray  # (s,) cluster of each segment
+    clu_work: np.ndarray  # (len(clu_nodes),) scratch: segment lengths of the current step
+    beam_idx: np.ndarray  # (b, 3) spline-beam triplets s, i, f
+    beam_EI: np.ndarray  # N mm^2
+    beam_k0: np.ndarray  # 1/mm rest curvature
+    beam_w: np.ndarray  # weight (1/2 at a clamp: the other half belongs to the mirrored beam)
+    beam_l: np.ndarray  # mm, rest length attributed to the node
+    strip_idx: np.ndarray  # (k, 5) frame geometry of strip nodes
+    strip_par: np.ndarray  # (k, 9) KB, KT, EIW, EIS, GJ, KW0, KN0, TAU0, LBAR
+
+
+# ----------------------------------------------------------------------------- frame geometry
+
+
+@njit(cache=True, error_model="numpy")
+def edge_normal(p0, p1, m, fixed):
+    """Strip normal of an edge: unit(d x w); +z if fixed. Returns (n, |d x w|)."""
+    if fixed:
+        return Z_AXIS, 1.0
+    c = cross(sub(p1, p0), sub(m, p0))
+    lc = norm(c)
+    return scale(c, 1.0 / lc), lc
+
+
+@njit(cache=True, error_model="numpy")
+def node_frame(xl, fixed1, fixed2):
+    """Edge normals n1, n2 and node normal nu of a frame node from its local rows.
+
+    xl rows: prev, j, next, m1, m2. A taped clamp (either edge fixed) has nu = +z.
+    Returns n1, |c1|, n2, |c2|, nu, |n1 + n2| (0 when nu is fixed).
+    """
+    p, j, q = get(xl, 0), get(xl, 1), get(xl, 2)
+    n1, l1 = edge_normal(p, j, get(xl, 3), fixed1)
+    n2, l2 = edge_normal(j, q, get(xl, 4), fixed2)
+    if fixed1 or fixed2:
+        return n1, l1, n2, l2, Z_AXIS, 0.0
+    s = add(n1, n2)
+    ls = norm(s)
+    return n1, l1, n2, l2, scale(s, 1.0 / ls), ls
+
+
+@njit(cache=True, error_model="numpy")
+def node_frame_vjp(xl, fixed1, fixed2, n1, l1, n2, l2, nu, ls, g_n1, g_n2, g_nu, gl):
+    """Pull gradients on (n1, n2, nu) back onto the local rows gl (5, 3)."""
+    if not (fixed1 or fixed2):
+        g_s = unit_vjp(nu, ls, g_nu)
+        g_n1 = add(g_n1, g_s)
+        g_n2 = add(g_n2, g_s)
+    for e in range(2):
+        if (fixed1 if e == 0 else fixed2):
+            continue
+        a, b, m = (0, 1, 3) if e == 0 else (1, 2, 4)
+        n, lc, g = (n1, l1, g_n1) if e == 0 else (n2, l2, g_n2)
+        p0 = get(xl, a)
+        d = sub(get(xl, b), p0)
+        w = sub(get(xl, m), p0)
+        g_c = unit_vjp(n, lc, g)
+        g_d = cross(w, g_c)
+        g_w = cross(g_c, d)
+        add_to(gl, b, g_d, 1.0)
+        add_to(gl, m, g_w, 1.0)
+        add_to(gl, a, add(g_d, g_w), -1.0)
+
+
+@njit(cache=True, error_model="numpy")
+def gather(X, idx, xl):
+    """Local rows (5, 3) of a frame node; rows of fixed-normal membrane nodes are zero."""
+    for r in range(5):
+        k = idx[r]
+        for c in range(3):
+            xl[r, c] = X[k, c] if k >= 0 else 0.0
+
+
+@njit(cache=True, error_model="numpy")
+def scatter(G, idx, gl, factor):
+    for r in range(5):
+        k = idx[r]
+        if k >= 0:
+            for c in range(3):
+                G[k, c] += factor * gl[r, c]
+
+
+# ----------------------------------------------------------------------------- strip term
+
+
+@njit(cache=True, error_model="numpy")
+def strip_forward(xl, fixed1, fixed2):
+    """Geometry of one strip node from its local rows: curvature binormal, material frame.
+
+    Discrete curvature binormal kb = 2 a x b / (|a||b| + a.b) (|kb| = 2 tan(phi/2) for a
+    turning angle phi), node tangent t = unit(a/|a| + b/|b|), width direction
+    u = unit(nu x t) (in the membrane plane), strip normal n = t x u. Weak-axis curvature is
+    kb.u, strong-axis (in-plane) kb.n, twist (n1 x n2).t between the two edge normals.
+    """
+    xp, xj, xn = get(xl, 0), get(xl, 1), get(xl, 2)
+    a = sub(xj, xp)
+    b = sub(xn, xj)
+    la, lb = norm(a), norm(b)
+    den = la * lb + dot(a, b)
+    c = cross(a, b)
+    kap = scale(c, 2.0 / den)
+    ah, bh = scale(a, 1.0 / la), scale(b, 1.0 / lb)
+    us = add(ah, bh)
+    lu = norm(us)
+    tb = scale(us, 1.0 / lu)
+    n1, l1, n2, l2, nu, ls = node_frame(xl, fixed1, fixed2)
+    v = cross(nu, tb)
+    lv = norm(v)
+    uu = scale(v, 1.0 / lv)
+    nt = cross(tb, uu)
+    kw, kn, tau = dot(kap, uu), dot(kap, nt), dot(cross(n1, n2), tb)
+    return (kw, kn, tau), (a, b, la, lb, den, c, kap, ah, bh, lu, tb, n1, l1, n2, l2, nu, ls, lv, uu, nt)
+
+
+@njit(cache=True, error_model="numpy")
+def strip_local(xl, fixed1, fixed2, par, gl, want_grad):
+    """Energy (bending, torsion) of one strip node; its gradient is added to gl (5, 3).
+
+    E = KB/2 (EI_w (kb.u - kw0)^2 + EI_s (kb.n - kn0)^2) + KT/2 GJ ((n1 x n2).t - tau0)^2,
+    KB and KT being the node's weight over its length; the rest values make the flat state
+    stress-free.
+    """
+    kb_, kt_ = par[KB], par[KT]
+    (kw, kn, tau), geo = strip_forward(xl, fixed1, fixed2)
+    a, b, la, lb, den, c, kap, ah, bh, lu, tb, n1, l1, n2, l2, nu, ls, lv, uu, nt = geo
+    dw, dn, dt = kw - par[KW0], kn - par[KN0], tau - par[TAU0]
+    e_bend = 0.5 * kb_ * (par[EIW] * dw * dw + par[EIS] * dn * dn)
+    e_twist = 0.5 * kt_ * par[GJ] * dt * dt
+    if not want_grad:
+        return e_bend, e_twist
+    g_k = add(scale(uu, kb_ * par[EIW] * dw), scale(nt, kb_ * par[EIS] * dn))
+    g_uu = scale(kap, kb_ * par[EIW] * dw)
+    g_nt = scale(kap, kb_ * par[EIS] * dn)
+    g_tb = cross(uu, g_nt)
+    g_uu = add(g_uu, cross(g_nt, tb))
+    g_v = unit_vjp(uu, lv, g_uu)
+    g_nu = cross(tb, g_v)
+    g_tb = add(g_tb, cross(g_v, nu))
+    gt = kt_ * par[GJ] * dt
+    g_n1 = scale(cross(n2, tb), gt)
+    g_n2 = scale(cross(tb, n1), gt)
+    g_tb = add(g_tb, scale(cross(n1, n2), gt))
+    g_us = unit_vjp(tb, lu, g_tb)
+    g_a = unit_vjp(ah, la, g_us)
+    g_b = unit_vjp(bh, lb, g_us)
+    cg = dot(c, g_k)
+    f1 = 2.0 / den
+    f2 = -2.0 * cg / (den * den)
+    g_a = add(g_a, axpy(f1, cross(b, g_k), scale(axpy(lb, ah, b), f2)))
+    g_b = add(g_b, axpy(f1, cross(g_k, a), scale(axpy(la, bh, a), f2)))
+    add_to(gl, 0, g_a, -1.0)
+    add_to(gl, 1, sub(g_a, g_b), 1.0)
+    add_to(gl, 2, g_b, 1.0)
+    node_frame_vjp(xl, fixed1, fixed2, n1, l1, n2, l2, nu, ls, g_n1, g_n2, g_nu, gl)
+    return e_bend, e_twist
+
+
+@njit(cache=True, error_model="numpy")
+def strip_measures(X, idx_all):
+    """(k, 3) weak curvature, strong curvature, twist (turning angles, rad) of strip nodes."""
+    out = np.zeros((idx_all.shape[0], 3))
+    xl = np.zeros((5, 3))
+    for k in range(idx_all.shape[0]):
+        idx = idx_all[k]
+        gather(X, idx, xl)
+        out[k, 0], out[k, 1], out[k, 2] = strip_forward(xl, idx[3] < 0, idx[4] < 0)[0]
+    return out
+
+
+# ----------------------------------------------------------------------------- virtual nodes
+
+
+@njit(cache=True, error_model="numpy")
+def place_virtual(X, P):
+    """Positions of the virtual nodes from the real ones: offsets (rows n...), then ghosts."""
+    n = P.n
+    base = n + P.off_geo.shape[0]
+    for k in range(P.ghost_src.shape[0]):
+        xs, xc = get(X, P.ghost_src[k]), get(X, P.ghost_clamp[k])
+        t = get(P.ghost_t, k)
+        g = axpy(-2.0 * dot(sub(xs, xc), t), t, xs)
+        X[base + k, 0], X[base + k, 1], X[base + k, 2] = g
+    xl = np.zeros((5, 3))
+    for k in range(P.off_geo.shape[0]):
+        idx = P.off_geo[k]
+        gather(X, idx, xl)
+        nu = node_frame(xl, idx[3] < 0, idx[4] < 0)[4]
+        q = axpy(P.off_d[k], nu, get(xl, 1))
+        X[n + k, 0], X[n + k, 1], X[n + k, 2] = q
+
+
+@njit(cache=True, error_model="numpy")
+def pull_back_virtual(X, G, P):
+    """Move gradients on virtual nodes onto the real nodes they are made from (chain rule)."""
+    n = P.n
+    base = n + P.off_geo.shape[0]
+    xl = np.zeros((5, 3))
+    gl = np.zeros((5, 3))
+    for k in range(P.off_geo.shape[0]):
+        idx = P.off_geo[k]
+        g_q = get(G, n + k)
+        gather(X, idx, xl)
+        f1, f2 = idx[3] < 0, idx[4] < 0
+        n1, l1, n2, l2, nu, ls = node_frame(xl, f1, f2)
+        gl[:] = 0.0
+        add_to(gl, 1, g_q, 1.0)
+        node_frame_vjp(xl, f1, f2, n1, l1, n2, l2, nu, ls, Z0, Z0, scale(g_q, P.off_d[k]), gl)
+        scatter(G, idx, gl, 1.0)
+    for k in range(P.ghost_src.shape[0]):
+        g = get(G, base + k)
+        t = get(P.ghost_t, k)
+        # g = R x_src + (I - R) x_clamp with R = I - 2 t t^T (symmetric)
+        gt = 2.0 * dot(g, t)
+        add_to(G, P.ghost_src[k], axpy(-gt, t, g), 1.0)
+        add_to(G, P.ghost_clamp[k], t, gt)
+
+
+
+# ----------------------------------------------------------------------------- all elements
+
+
+@njit(cache=True, error_model="numpy")
+def _tension(EA, L0, L, tension_only):
+    t = EA / L0 * (L - L0)
+    if tension_only and t < 0.0:
+        return 0.0
+    return t
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def add_block(D, i, e, k_axial, k_geo):
+    """D[i] += k_axial e e^T + k_geo (I - e e^T), e a unit vector; D rows are xx yy zz xy xz yz."""
+    kd = k_axial - k_geo
+    D[i, 0] += kd * e[0] * e[0] + k_geo
+    D[i, 1] += kd * e[1] * e[1] + k_geo
+    D[i, 2] += kd * e[2] * e[2] + k_geo
+    D[i, 3] += kd * e[0] * e[1]
+    D[i, 4] += kd * e[0] * e[2]
+    D[i, 5] += kd * e[1] * e[2]
+
+
+@njit(cache=True, error_model="numpy")
+def gradient(X, P, G, D):
+    """Energy gradient dE/dX of all elements on the real nodes, in G (n_total, 3).
+
+    X must hold the real positions in its first P.n rows; virtual rows are recomputed. If D
+    has rows, the direction-dependent stiffness of links and cables is accumulated in it
+    (see :func:`stiffness`). Returns the largest element force (N) for the relative residual.
+    """
+    place_virtual(X, P)
+    G[:] = 0.0
+    tensor = D.shape[0] > 0
+    if tensor:
+        D[:] = 0.0
+    fmax = 0.0
+    for k in range(P.link_ij.shape[0]):
+        i, j = P.link_ij[k, 0], P.link_ij[k, 1]
+        d = sub(get(X, j), get(X, i))
+        L = norm(d)
+        t = _tension(P.link_EA[k], P.link_L0[k], L, P.link_tension_only[k])
+        fmax = max(fmax, abs(t))
+        add_to(G, i, d, -t / L)
+        add_to(G, j, d, t / L)
+        if tensor:
+            e = scale(d, 1.0 / L)
+            ka, kg = P.link_EA[k] / P.link_L0[k], abs(t) / L
+            add_block(D, i, e, ka, kg)
+            add_block(D, j, e, ka, kg)
+    seg_len = P.clu_work
+    for c in range(P.clu_ptr.shape[0] - 1):
+        lo, hi = P.clu_ptr[c], P.clu_ptr[c + 1]
+        L = 0.0
+        for s in range(lo, hi - 1):
+            li = norm(sub(get(X, P.clu_nodes[s + 1]), get(X, P.clu_nodes[s])))
+            seg_len[s] = li
+            L += li
+        t = _tension(P.clu_EA[c], P.clu_L0[c], L, P.clu_tension_only[c])
+        fmax = max(fmax, abs(t))
+        if t == 0.0:
+            continue
+        for s in range(lo, hi - 1):
+            i, j = P.clu_nodes[s], P.clu_nodes[s + 1]
+            d = sub(get(X, j), get(X, i))
+            f = t / seg_len[s]
+            add_to(G, i, d, -f)
+            add_to(G, j, d, f)
+    for k in range(P.beam_idx.shape[0]):
+        s, i, f = P.beam_idx[k, 0], P.beam_idx[k, 1], P.beam_idx[k, 2]
+        xs, xi, xf = get(X, s), get(X, i), get(X, f)
+        a, b = sub(xi, xs), sub(xf, xi)
+        la, lb, lc = norm(a), norm(b), norm(sub(xf, xs))
+        cr = cross(a, b)
+        lcr = norm(cr)
+        if lcr <= 1e-14 * la * lb:
+            continue  # straight: no bending plane (and no moment if the rest state is straight)
+        m = P.beam_w[k] * P.beam_EI[k] * (2.0 * lcr / (la * lb * lc) - P.beam_k0[k])
+        n = scale(cr, 1.0 / lcr)
+        ea = cross(n, a)  # length la, towards the centre of curvature
+        eb = cross(n, b)
+        sa, sb = m / (la * la), m / (lb * lb)
+        fmax = max(fmax, abs(m) / min(la, lb))
+        # Adriaenssens & Barnes: ends pushed away from the centre, middle node towards it
+        add_to(G, s, ea, sa)
+        add_to(G, f, eb, sb)
+        add_to(G, i, add(scale(ea, sa), scale(eb, sb)), -1.0)
+    xl = np.zeros((5, 3))
+    gl = np.zeros((5, 3))
+    for k in range(P.strip_idx.shape[0]):
+        idx = P.strip_idx[k]
+        gather(X, idx, xl)
+        gl[:] = 0.0
+        strip_local(xl, idx[3] < 0, idx[4] < 0, P.strip_par[k], gl, True)
+        scatter(G, idx, gl, 1.0)
+        for r in range(3):
+            fmax = max(fmax, norm(get(gl, r)))
+    pull_back_virtual(X, G, P)
+    if tensor:
+        for k in range(P.off_geo.shape[0]):
+            for c in range(6):
+                D[P.off_geo[k, 1], c] += D[P.n + k, c]
+    return fmax
+
+
+@njit(cache=True, error_model="numpy")
+def energy(X, P):
+    """Strain energy split (membrane, frame bending, frame torsion, frame axial), N mm."""
+    place_virtual(X, P)
+    e_mem = e_bend = e_twist = e_ax = 0.0
+    for k in range(P.link_ij.shape[0]):
+        L = norm(sub(get(X, P.link_ij[k, 1]), get(X, P.link_ij[k, 0])))
+        t = _tension(P.link_EA[k], P.link_L0[k], L, P.link_tension_only[k])
+        e = 0.5 * t * t * P.link_L0[k] / P.link_EA[k]  # N eps L0 / 2
+        if P.link_frame[k]:
+            e_ax += e
+        else:
+            e_mem += e
+    for c in range(P.clu_ptr.shape[0] - 1):
+        L = 0.0
+        for s in range(P.clu_ptr[c], P.clu_ptr[c + 1] - 1):
+            L += norm(sub(get(X, P.clu_nodes[s + 1]), get(X, P.clu_nodes[s])))
+        t = _tension(P.clu_EA[c], P.clu_L0[c], L, P.clu_tension_only[c])
+        e_mem += 0.5 * t * t * P.clu_L0[c] / P.clu_EA[c]
+    for k in range(P.beam_idx.shape[0]):
+        xs, xi, xf = get(X, P.beam_idx[k, 0]), get(X, P.beam_idx[k, 1]), get(X, P.beam_idx[k, 2])
+        a, b = sub(xi, xs), sub(xf, xi)
+        kap = 2.0 * norm(cross(a, b)) / (norm(a) * norm(b) * norm(sub(xf, xs)))
+        dm = kap - P.beam_k0[k]
+        e_bend += 0.5 * P.beam_w[k] * P.beam_EI[k] * dm * dm * P.beam_l[k]  # M^2 L / (2 EI)
+    xl = np.zeros((5, 3))
+    gl = np.zeros((5, 3))
+    for k in range(P.strip_idx.shape[0]):
+        idx = P.strip_idx[k]
+        gather(X, idx, xl)
+        eb, et = strip_local(xl, idx[3] < 0, idx[4] < 0, P.strip_par[k], gl, False)
+        e_bend += eb
+        e_twist += et
+    return e_mem, e_bend, e_twist, e_ax
+
+
+# ----------------------------------------------------------------------------- masses
+
+
+@njit(cache=True, error_model="numpy")
+def _strip_gershgorin(xl, fixed1, fixed2, par, rows):
+    """Largest absolute row sum (per local row) of the strip term's Hessian, by central
+    differences of its exact gradient."""
+    g_plus = np.zeros((5, 3))
+    g_minus = np.zeros((5, 3))
+    h_abs = np.zeros((5, 3))
+    scale_len = norm(sub(get(xl, 2), get(xl, 0)))
+    h = 1e-6 * scale_len
+    for r in range(5):
+        if (r == 3 and fixed1) or (r == 4 and fixed2):
+            continue
+        for c in range(3):
+            x0 = xl[r, c]
+            g_plus[:] = 0.0
+            g_minus[:] = 0.0
+            xl[r, c] = x0 + h
+            strip_local(xl, fixed1, fixed2, par, g_plus, True)
+            xl[r, c] = x0 - h
+            strip_local(xl, fixed1, fixed2, par, g_minus, True)
+            xl[r, c] = x0
+            # column (r, c) of the Hessian; by symmetry also the row: accumulate |H|
+            for rr in range(5):
+                for cc in range(3):
+                    h_abs[rr, cc] += abs(g_plus[rr, cc] - g_minus[rr, cc]) / (2.0 * h)
+    for r in range(5):
+        rows[r] = max(h_abs[r, 0], h_abs[r, 1], h_abs[r, 2])
+
+
+@njit(cache=True, error_model="numpy")
+def stiffness(X, P, S, with_links):
+    """Per-node stiffness bound S (n_total,) for the fictitious masses m = f dt^2/2 S.
+
+    Links (``with_links``; else they go into the directional blocks of :func:`gradient`):
+    EA/L0 + T/L (Barnes). Clusters: the same, with the cable's axial term spread by how much
+    each node changes the cable length; they stay scalar because an inner cable node's
+    stiffness hangs on the kink of the cable there, which changes every step. Spline beams: the row sums (4, 8, 4) EI/l^3 of a
+    triplet's lateral stiffness plus the geometric M/l^2. Strip nodes: Gershgorin row sums
+    of the term's Hessian. Virtual nodes pass theirs to the nodes they are made from.
+    """
+    place_virtual(X, P)
+    S[:] = 0.0
+    for k in range(P.link_ij.shape[0] if with_links else 0):
+        i, j = P.link_ij[k, 0], P.link_ij[k, 1]
+        L = norm(sub(get(X, j), get(X, i)))
+        t = _tension(P.link_EA[k], P.link_L0[k], L, P.link_tension_only[k])
+        kk = P.link_EA[k] / P.link_L0[k] + abs(t) / L
+        S[i] += kk
+        S[j] += kk
+    for c in range(P.clu_ptr.shape[0] - 1):
+        lo, hi = P.clu_ptr[c], P.clu_ptr[c + 1]
+        L = 0.0
+        for s in range(lo, hi - 1):
+            L += norm(sub(get(X, P.clu_nodes[s + 1]), get(X, P.clu_nodes[s])))
+        t = abs(_tension(P.clu_EA[c], P.clu_L0[c], L, P.clu_tension_only[c]))
+        k_ax = P.clu_EA[c] / P.clu_L0[c]
+        nseg = hi - lo - 1
+        # |dL/dx_node| summed over the chain: 2 for a straight cable, more for a kinked one
+        gsum = 0.0
+        for s in range(lo, hi):
+            gsum += _chain_turn(X, P.clu_nodes, lo, hi, s)
+        for s in range(lo, hi):
+            node = P.clu_nodes[s]
+            geo = 0.0
+            if s > lo:
+                geo += t / norm(sub(get(X, node), get(X, P.clu_nodes[s - 1])))
+            if s < hi - 1:
+                geo += t / norm(sub(get(X, P.clu_nodes[s + 1]), get(X, node)))
+            # a slack cable still gets a little mass so that its nodes stay finite
+            S[node] += k_ax * (_chain_turn(X, P.clu_nodes, lo, hi, s) * gsum + 0.05 * nseg) + geo
+    for k in range(P.beam_idx.shape[0]):
+        s, i, f = P.beam_idx[k, 0], P.beam_idx[k, 1], P.beam_idx[k, 2]
+        xs, xi, xf = get(X, s), get(X, i), get(X, f)
+        a, b = sub(xi, xs), sub(xf, xi)
+        la, lb = norm(a), norm(b)
+        lm = min(la, lb)
+        kap = 2.0 * norm(cross(a, b)) / (la * lb * norm(sub(xf, xs)))
+        m = abs(P.beam_w[k] * P.beam_EI[k] * (kap - P.beam_k0[k]))
+        kb = P.beam_w[k] * P.beam_EI[k] / (lm * lm * lm)
+        S[s] += 4.0 * kb + m / (lm * lm)
+        S[i] += 8.0 * kb + 2.0 * m / (lm * lm)
+        S[f] += 4.0 * kb + m / (lm * lm)
+    xl = np.zeros((5, 3))
+    rows = np.zeros(5)
+    for k in range(P.strip_idx.shape[0]):
+        idx = P.strip_idx[k]
+        gather(X, idx, xl)
+        _strip_gershgorin(xl, idx[3] < 0, idx[4] < 0, P.strip_par[k], rows)
+        for r in range(5):
+            if idx[r] >= 0:
+                S[idx[r]] += rows[r]
+    n = P.n
+    base = n + P.off_geo.shape[0]
+    for k in range(P.off_geo.shape[0]):
+        S[P.off_geo[k, 1]] += S[n + k]
+    for k in range(P.ghost_src.shape[0]):
+        S[P.ghost_src[k]] += S[base + k]
+
+
+@njit(cache=True, error_model="numpy")
+def _chain_turn(X, nodes, lo, hi, s):
+    """|dL/dx| of chain node s: |e_in - e_out| (1 at the ends)."""
+    if s == lo or s == hi - 1:
+        return 1.0
+    p, c, q = get(X, nodes[s - 1]), get(X, nodes[s]), get(X, nodes[s + 1])
+    e1 = sub(c, p)
+    e2 = sub(q, c)
+    return norm(sub(scale(e1, 1.0 / norm(e1)), scale(e2, 1.0 / norm(e2))))

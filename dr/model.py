@@ -1,0 +1,400 @@
+"""The low-level DR model: nodes, supports, clamps, links, clustered cables, beams, loads.
+
+>>> m = Model(nodes)                       # (n, 3) reference positions, mm (rest geometry)
+>>> m.support([0, 1])                      # pin x, y, z (or axes="z")
+>>> m.clamp(0, tangent=(1, 0, 0))          # pin node 0 and fix the beam tangent there
+>>> m.add_beam(range(41), EI=0.78, EA=1300)
+>>> m.add_load(40, (0, 0, -1e-3))
+>>> res = dr.relax(m)
+
+Rest lengths and rest curvatures default to the reference geometry ``nodes``; the start of the
+relaxation can be a different geometry (``relax(m, x_start=...)``).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Iterable, Sequence
+
+import numpy as np
+
+from .errors import DRError
+from .kernels import EIS, EIW, GJ, KB, KN0, KT, KW0, LBAR, TAU0, Packed, node_frame, place_virtual, strip_measures
+
+
+def _positive(name: str, value: float) -> float:
+    v = float(value)
+    if not np.isfinite(v) or v <= 0:
+        raise DRError(f"{name} = {value!r} must be a positive number")
+    return v
+
+
+def _unit(name: str, v: Sequence[float]) -> np.ndarray:
+    a = np.asarray(v, dtype=float).reshape(-1)
+    if a.shape != (3,) or not np.all(np.isfinite(a)) or np.linalg.norm(a) == 0:
+        raise DRError(f"{name} must be a non-zero 3-vector")
+    return a / np.linalg.norm(a)
+
+
+@dataclass
+class _Beam:
+    chain: np.ndarray
+    EI: float
+    EA: float | None
+    EI_strong: float | None
+    GJ: float | None
+    orientation: np.ndarray | None
+    closed: bool
+
+
+class Model:
+    """A DR model built node by node (see the module docstring for an example).
+
+    Parameters
+    ----------
+    nodes
+        (n, 3) reference node positions in mm: the stress-free geometry that defines default
+        rest lengths and rest curvatures.
+    """
+
+    def __init__(self, nodes: np.ndarray | Sequence[Sequence[float]]) -> None:
+        x = np.array(nodes, dtype=float)
+        if x.ndim != 2 or x.shape[1] != 3 or x.shape[0] < 2:
+            raise DRError("nodes must be an (n, 3) array of positions in mm with n >= 2")
+        if not np.all(np.isfinite(x)):
+            raise DRError("nodes must be finite numbers (mm)")
+        self.nodes = x
+        self.fixed = np.zeros(x.shape, dtype=bool)
+        self.loads = np.zeros(x.shape)
+        self._links: list[tuple[np.ndarray, ...]] = []
+        self._clusters: list[tuple[np.ndarray, float, float, bool]] = []
+        self._beams: list[_Beam] = []
+        self._clamps: dict[int, tuple[np.ndarray, bool]] = {}
+        self._offsets: list[tuple[int, float]] = []
+        self._offset_ref: list[np.ndarray] = []  # their reference positions, mm
+        self.triangles: np.ndarray | None = None  # optional surface for VTK output
+
+    # ------------------------------------------------------------------ helpers
+    @property
+    def n(self) -> int:
+        """Number of real nodes."""
+        return self.nodes.shape[0]
+
+    def _index(self, name: str, i: int, allow_virtual: bool = False) -> int:
+        limit = self.n + (len(self._offsets) if allow_virtual else 0)
+        try:
+            k = int(i)
+        except (TypeError, ValueError):
+            raise DRError(f"{name} = {i!r} is not a node index") from None
+        if not 0 <= k < limit:
+            raise DRError(f"{name} = {k} is not a node of this model (0 .. {limit - 1})")
+        return k
+
+    def _indices(self, name: str, idx: Iterable[int], allow_virtual: bool = False) -> np.ndarray:
+        arr = np.atleast_1d(np.asarray(list(idx) if not isinstance(idx, np.ndarray) else idx))
+        if arr.size == 0:
+            raise DRError(f"{name} is empty")
+        if not np.issubdtype(arr.dtype, np.integer):
+            raise DRError(f"{name} must hold node indices (integers)")
+        limit = self.n + (len(self._offsets) if allow_virtual else 0)
+        bad = arr[(arr < 0) | (arr >= limit)]
+        if bad.size:
+            raise DRError(f"{name} holds {bad[0]}, not a node of this model (0 .. {limit - 1})")
+        return arr.astype(np.int64)
+
+    # ------------------------------------------------------------------ supports and loads
+    def support(self, indices: int | Iterable[int], axes: str = "xyz") -> None:
+        """Fix the given coordinates ('xyz' pins) of the nodes ``indices``."""
+        idx = self._indices("support indices", np.atleast_1d(indices))
+        if not axes or set(axes) - set("xyz"):
+            raise DRError(f"support axes = {axes!r}: use a combination of 'x', 'y', 'z'")
+        for a in axes:
+            self.fixed[idx, "xyz".index(a)] = True
+
+    def clamp(self, i: int, tangent: Sequence[float], taped: bool = False) -> None:
+        """Pin node ``i`` and fix the tangent of the beam that ends there.
+
+        Second-order clamp (DESIGN.md): a moving ghost, the mirror image of the beam's next node
+        across the plane through node i normal to ``tangent``, with the clamp triplet's moment
+        at half weight. ``taped`` also holds a strip's normal at +z there (the strip is taped
+        flat), which a strip beam needs at a clamped end.
+        """
+        k = self._index("clamp node", i)
+        self._clamps[k] = (_unit("clamp tangent", tangent), bool(taped))
+        self.fixed[k] = True
+
+    def add_load(self, i: int, force: Sequence[float]) -> None:
+        """Add a nodal force (fx, fy, fz) in N to node ``i``."""
+        k = self._index("load node", i)
+        f = np.asarray(force, dtype=float).reshape(-1)
+        if f.shape != (3,) or not np.all(np.isfinite(f)):
+            raise DRError("load force must be a finite 3-vector (N)")
+        self.loads[k] += f
+
+    # ------------------------------------------------------------------ elements
+    def _rest_lengths(self, name: str, i: np.ndarray, j: np.ndarray, rest: object) -> np.ndarray:
+        x = self._ref_positions()
+        L = np.linalg.norm(x[j] - x[i], axis=1)
+        if rest is None:
+            L0 = L
+        else:
+            L0 = np.broadcast_to(np.asarray(rest, dtype=float), L.shape).copy()
+        if np.any(~np.isfinite(L0)) or np.any(L0 <= 0):
+            raise DRError(f"{name}: rest lengths must be positive (mm); a zero-length element has no direction")
+        return L0
+
+    def _ref_positions(self) -> np.ndarray:
+        """Reference positions of real and virtual (offset) nodes."""
+        if not self._offsets:
+            return self.nodes
+        return np.vstack([self.nodes, self._offset_ref])
+
+    def add_link(
+        self,
+        i: int | Sequence[int],
+        j: int | Sequence[int],
+        EA: float | Sequence[float],
+        rest_length: float | Sequence[float] | None = None,
+        tension_only: bool = False,
+        role: str = "membrane",
+    ) -> None:
+        """Add links (bars or cables) between nodes i and j: T = EA/L0 (L - L0).
+
+        ``role`` ('membrane' or 'frame') decides where their energy is counted.
+        """
+        ii = self._indices("link i", np.atleast_1d(i), True)
+        jj = self._indices("link j", np.atleast_1d(j), True)
+        if ii.shape != jj.shape:
+            raise DRError("link i and j must have the same length")
+        if np.any(ii == jj):
+            raise DRError("a link joins a node to itself; give two different nodes")
+        ea = np.broadcast_to(np.asarray(EA, dtype=float), ii.shape).copy()
+        if np.any(~np.isfinite(ea)) or np.any(ea <= 0):
+            raise DRError("link EA must be positive (N)")
+        if role not in ("membrane", "frame"):
+            raise DRError(f"link role = {role!r}: use 'membrane' or 'frame'")
+        L0 = self._rest_lengths("link", ii, jj, rest_length)
+        self._links.append((ii, jj, ea, L0, np.full(ii.shape, tension_only), np.full(ii.shape, role == "frame")))
+
+    def add_cluster(
+        self,
+        chain: Sequence[int],
+        EA: float,
+        rest_length: float | None = None,
+        tension_only: bool = True,
+    ) -> int:
+        """Add a clustered cable over ``chain`` (frictionless pulleys at the inner nodes).
+
+        One tension for the whole chain: T = EA/L0 (sum l_i - L0). Returns its cluster number.
+        """
+        c = self._indices("cluster chain", chain, True)
+        if c.size < 2:
+            raise DRError("a cluster chain needs at least 2 nodes")
+        if np.any(c[1:] == c[:-1]):
+            raise DRError("cluster chain repeats a node in consecutive places")
+        ea = _positive("cluster EA (N)", EA)
+        L = float(np.sum(self._rest_lengths("cluster", c[:-1], c[1:], None)))
+        L0 = L if rest_length is None else _positive("cluster rest_length (mm)", rest_length)
+        self._clusters.append((c, ea, L0, bool(tension_only)))
+        return len(self._clusters) - 1
+
+    def add_beam(
+        self,
+        chain: Sequence[int],
+        EI: float,
+        EA: float | None = None,
+        *,
+        EI_strong: float | None = None,
+        GJ: float | None = None,
+        orientation: Sequence[int] | None = None,
+        closed: bool = False,
+    ) -> None:
+        """Add a beam along ``chain``; its rest shape is the reference geometry.
+
+        Without ``EI_strong`` it is the isotropic spline beam (Adriaenssens & Barnes):
+        M = EI (kappa - kappa_0) per node triplet. With ``EI_strong`` and ``GJ`` it is a strip:
+        weak-axis EI, strong-axis EI_strong, torsion GJ, its plane set by ``orientation``
+        (one node per edge, e.g. the membrane node next to the edge); the forces are the exact
+        gradient of one energy, so the orientation nodes get their reactions. ``EA`` adds an
+        axial link per segment (role 'frame'). Units: N mm^2, N.
+        """
+        c = self._indices("beam chain", chain)
+        if c.size < 3 and not closed:
+            raise DRError("a beam chain needs at least 3 nodes")
+        if len(set(c.tolist())) != c.size:
+            raise DRError("beam chain visits a node twice; for a loop give each node once and closed=True")
+        ei = _positive("beam EI (N mm^2)", EI)
+        n_edges = c.size if closed else c.size - 1
+        orient = None
+        if orientation is not None:
+            orient = self._indices("beam orientation", orientation)
+            if orient.size != n_edges:
+                raise DRError(f"beam orientation needs one node per edge ({n_edges}), got {orient.size}")
+        if EI_strong is not None:
+            if GJ is None or orient is None:
+                raise DRError("a strip beam (EI_strong given) also needs GJ and orientation")
+            _positive("beam EI_strong (N mm^2)", EI_strong)
+            _positive("beam GJ (N mm^2)", GJ)
+        ea = None if EA is None else _positive("beam EA (N)", EA)
+        self._beams.append(_Beam(c, ei, ea, EI_strong, GJ, orient, closed))
+        if ea is not None:
+            nxt = np.roll(c, -1) if closed else c[1:]
+            self.add_link(c[: n_edges], nxt[:n_edges], ea, role="frame")
+
+    def offset_node(self, i: int, distance: float) -> int:
+        """A virtual node at ``distance`` mm along the strip normal from frame node ``i``.
+
+        Elements attached to it act off the beam centreline (a film bonded on one face of the
+        strip). Node i must be an inner node of a beam with an orientation, or a taped clamp.
+        Returns the virtual node's index for add_link / add_cluster.
+        """
+        k = self._index("offset node", i)
+        d = float(distance)
+        if not np.isfinite(d):
+            raise DRError("offset distance must be a finite number (mm)")
+        geo = self._frame_geometry(k)
+        xl = np.where(geo[:, None] >= 0, self.nodes[np.maximum(geo, 0)], 0.0)
+        nu = np.array(node_frame(xl, geo[3] < 0, geo[4] < 0)[4])
+        self._offsets.append((k, d))
+        self._offset_ref.append(self.nodes[k] + d * nu)
+        return self.n + len(self._offsets) - 1
+
+    # ------------------------------------------------------------------ packing
+    def _ghosts(self) -> list[tuple[int, int, np.ndarray, int]]:
+        """(beam number, end (0 or -1), tangent, neighbour) for every clamped beam end."""
+        out = []
+        for b, beam in enumerate(self._beams):
+            if beam.closed:
+                continue
+            for end, nb in ((0, 1), (-1, -2)):
+                node = int(beam.chain[end])
+                if node in self._clamps:
+                    out.append((b, end, self._clamps[node][0], int(beam.chain[nb])))
+        return out
+
+    def _frame_geometry(self, node: int) -> np.ndarray:
+        """(prev, node, next, m1, m2) of ``node`` on an oriented beam (ghost ids unresolved: -2)."""
+        for beam in self._beams:
+            if beam.orientation is None:
+                continue
+            pos = np.flatnonzero(beam.chain == node)
+            if pos.size == 0:
+                continue
+            p = int(pos[0])
+            c, o, m = beam.chain, beam.orientation, beam.chain.size
+            if beam.closed:
+                return np.array([c[p - 1], node, c[(p + 1) % m], o[p - 1], o[p]])
+            if 0 < p < m - 1:
+                return np.array([c[p - 1], node, c[p + 1], o[p - 1], o[p]])
+            if node in self._clamps and self._clamps[node][1]:
+                # taped clamp: normal +z; neighbour slots hold a real node, unused for nu = +z
+                nb = c[1] if p == 0 else c[-2]
+                return np.array([nb, node, nb, -1, -1])
+            raise DRError(f"node {node} is a free end of a beam: it has no strip normal; offsets need an inner node or a taped clamp")
+        raise DRError(f"node {node} is on no beam with an orientation: give add_beam(..., orientation=...) first")
+
+    def pack(self) -> Packed:
+        """The element arrays the compiled kernels take."""
+        n, n_off = self.n, len(self._offsets)
+        ghosts = self._ghosts()
+        ghost_id = {(b, end): n + n_off + g for g, (b, end, _, _) in enumerate(ghosts)}
+        x = self.nodes
+        beam_rows, strip_rows = [], []
+        for b, beam in enumerate(self._beams):
+            c = beam.chain
+            m = c.size
+            trip = []  # (prev, j, next, weight, edge slots)
+            if beam.closed:
+                for p in range(m):
+                    trip.append((c[p - 1], c[p], c[(p + 1) % m], 1.0, p - 1, p))
+            else:
+                for p in range(1, m - 1):
+                    trip.append((c[p - 1], c[p], c[p + 1], 1.0, p - 1, p))
+                if (b, 0) in ghost_id:
+                    trip.append((ghost_id[(b, 0)], c[0], c[1], 0.5, -1, 0))
+                if (b, -1) in ghost_id:
+                    trip.append((c[-2], c[-1], ghost_id[(b, -1)], 0.5, m - 2, -1))
+            for prev, j, nxt, w, e1, e2 in trip:
+                if beam.EI_strong is None:
+                    beam_rows.append((prev, j, nxt, beam.EI, w))
+                else:
+                    if w < 1.0 and not self._clamps[int(j)][1]:
+                        raise DRError(f"strip beam clamped at node {j} must be taped (clamp(..., taped=True)): its normal needs holding")
+                    o = beam.orientation
+                    m1 = o[e1] if e1 >= 0 else -1
+                    m2 = o[e2] if e2 >= 0 else -1
+                    strip_rows.append((prev, j, nxt, m1, m2, w, beam))
+        # ghosts and offsets
+        g_src = np.array([g[3] for g in ghosts], dtype=np.int64)
+        g_clamp = np.array([int(self._beams[g[0]].chain[g[1]]) for g in ghosts], dtype=np.int64)
+        g_t = np.array([g[2] for g in ghosts], dtype=float).reshape(-1, 3)
+        off_geo = np.array([self._frame_geometry(k) for k, _ in self._offsets], dtype=np.int64).reshape(-1, 5)
+        off_d = np.array([d for _, d in self._offsets], dtype=float)
+        # links
+        if self._links:
+            li, lj, lea, ll0, lto, lfr = (np.concatenate(a) for a in zip(*self._links))
+        else:
+            li = lj = np.zeros(0, np.int64)
+            lea = ll0 = np.zeros(0)
+            lto = lfr = np.zeros(0, bool)
+        # clusters
+        ptr = np.zeros(len(self._clusters) + 1, dtype=np.int64)
+        ptr[1:] = np.cumsum([c[0].size for c in self._clusters])
+        cl_nodes = np.concatenate([c[0] for c in self._clusters]) if self._clusters else np.zeros(0, np.int64)
+        cl_seg = np.concatenate([np.stack([c[0][:-1], c[0][1:]], axis=1) for c in self._clusters]) if self._clusters else np.zeros((0, 2), np.int64)
+        cl_seg_cluster = np.repeat(np.arange(len(self._clusters)), [c[0].size - 1 for c in self._clusters])
+        P = Packed(
+            n=n,
+            ghost_src=g_src,
+            ghost_clamp=g_clamp,
+            ghost_t=g_t,
+            off_geo=off_geo,
+            off_d=off_d,
+            link_ij=np.stack([li, lj], axis=1).astype(np.int64).reshape(-1, 2),
+            link_EA=lea.astype(float),
+            link_L0=ll0.astype(float),
+            link_tension_only=lto.astype(bool),
+            link_frame=lfr.astype(bool),
+            clu_ptr=ptr,
+            clu_nodes=cl_nodes.astype(np.int64),
+            clu_EA=np.array([c[1] for c in self._clusters], dtype=float),
+            clu_L0=np.array([c[2] for c in self._clusters], dtype=float),
+            clu_tension_only=np.array([c[3] for c in self._clusters], dtype=bool),
+            clu_seg=cl_seg.astype(np.int64),
+            clu_seg_cluster=cl_seg_cluster.astype(np.int64),
+            clu_work=np.zeros(cl_nodes.size),
+            beam_idx=np.array([r[:3] for r in beam_rows], dtype=np.int64).reshape(-1, 3),
+            beam_EI=np.array([r[3] for r in beam_rows], dtype=float),
+            beam_k0=np.zeros(len(beam_rows)),
+            beam_w=np.array([r[4] for r in beam_rows], dtype=float),
+            beam_l=np.zeros(len(beam_rows)),
+            strip_idx=np.array([r[:5] for r in strip_rows], dtype=np.int64).reshape(-1, 5),
+            strip_par=np.zeros((len(strip_rows), 9)),
+        )
+        # rest curvatures, lengths and strip rest measures from the reference geometry
+        X = np.zeros((n + n_off + len(ghosts), 3))
+        X[:n] = x
+        place_virtual(X, P)
+        if beam_rows:
+            s, i, f = P.beam_idx.T
+            a, bb = X[i] - X[s], X[f] - X[i]
+            la, lb = np.linalg.norm(a, axis=1), np.linalg.norm(bb, axis=1)
+            lc = np.linalg.norm(X[f] - X[s], axis=1)
+            P.beam_k0[:] = 2 * np.linalg.norm(np.cross(a, bb), axis=1) / (la * lb * lc)
+            P.beam_l[:] = 0.5 * (la + lb)
+        if strip_rows:
+            idx = P.strip_idx
+            la = np.linalg.norm(X[idx[:, 1]] - X[idx[:, 0]], axis=1)
+            lb = np.linalg.norm(X[idx[:, 2]] - X[idx[:, 1]], axis=1)
+            w = np.array([r[5] for r in strip_rows])
+            lbar = 0.5 * (la + lb)
+            par = P.strip_par
+            par[:, LBAR] = lbar
+            par[:, KB] = w / lbar
+            # the twist at a taped clamp spans half an edge (clamp to edge midpoint)
+            par[:, KT] = np.where(w < 1.0, 1.0 / (0.5 * lbar), 1.0 / lbar)
+            par[:, EIW] = [r[6].EI for r in strip_rows]
+            par[:, EIS] = [r[6].EI_strong for r in strip_rows]
+            par[:, GJ] = [r[6].GJ for r in strip_rows]
+            par[:, [KW0, KN0, TAU0]] = strip_measures(X, idx)
+        return P

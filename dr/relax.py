@@ -1,0 +1,295 @@
+"""``relax``: find the static equilibrium of a :class:`dr.Model` by dynamic relaxation."""
+
+from __future__ import annotations
+
+import time
+from typing import Callable, Sequence
+
+import numpy as np
+from tqdm import tqdm
+
+from results import CellBlock, Result
+
+from . import integrator as itg
+from .errors import DRError
+from .kernels import EIW, KN0, KW0, LBAR, TAU0, Packed, energy, place_virtual, stiffness, strip_measures
+from .model import Model
+
+Check = Callable[[np.ndarray], "str | None"]
+
+
+def relax(
+    model: Model,
+    tol: float = 1e-6,
+    mass_safety: float = 2.0,
+    max_iterations: int = 2_000_000,
+    x_start: np.ndarray | None = None,
+    checks: Sequence[Check] = (),
+    final_checks: Sequence[Check] = (),
+    masses: str = "tensor",
+    progress: bool = False,
+    chunk: int = 20_000,
+) -> Result:
+    """Relax ``model`` to equilibrium with kinetic damping.
+
+    Parameters
+    ----------
+    tol
+        Convergence when the largest nodal residual and momentum |M v|/dt at free nodes are
+        below ``tol`` times the largest element force (N/N; at least the largest load or the
+        largest element force of the start state, so that a state relaxing to zero force, such
+        as an unloaded structure, converges too).
+    mass_safety
+        Safety factor f of the fictitious masses M = f dt^2/2 K (K a stiffness bound; f >= 1
+        is stable, 2 is safe).
+    max_iterations
+        Time-step limit.
+    x_start
+        Starting positions (n, 3), mm (default: the reference geometry). Fixed coordinates keep
+        their reference values.
+    checks
+        Callables (e.g. :class:`dr.FrameContact`) run between chunks on the positions; a
+        message stops the run with status 'self_contact'. A check's ``budget`` (mm) bounds how
+        far its ``nodes`` may move between two calls.
+    final_checks
+        Callables run on the converged state only (e.g. :class:`dr.MembraneFold`: a clustered
+        net may fold for a moment on its way and unfold again).
+    masses
+        'tensor': direction-dependent masses from each link's stiffness, rebuilt every step
+        (a frame node is heavy along the frame only); 'scalar': Barnes' masses f dt^2/2 S.
+    progress
+        Show a progress bar with the residual.
+    chunk
+        Steps between residual records, checks and (scalar) mass updates.
+
+    Returns
+    -------
+    Result
+        The equilibrium (``converged``), or the last state reached with ``status``
+        'max_iterations', 'diverged' (the last finite state) or 'self_contact', and a message
+        with the residual and iteration count.
+    """
+    if not (np.isfinite(tol) and tol > 0):
+        raise DRError(f"tol = {tol!r} must be a positive number (relative residual, e.g. 1e-6)")
+    if not (np.isfinite(mass_safety) and mass_safety > 0):
+        raise DRError(f"mass_safety = {mass_safety!r} must be positive (f >= 1 is stable, 2 is safe)")
+    if int(max_iterations) < 1:
+        raise DRError("max_iterations must be at least 1")
+    if masses not in ("tensor", "scalar"):
+        raise DRError(f"masses = {masses!r}: use 'tensor' or 'scalar'")
+    if not model.fixed.any():
+        raise DRError(
+            "the model has no supports: it can move as a rigid body; pin some nodes with "
+            "model.support(indices) or model.clamp(i, tangent)"
+        )
+    t0 = time.perf_counter()
+    P = model.pack()
+    n = P.n
+    X = np.zeros((n + P.off_geo.shape[0] + P.ghost_src.shape[0], 3))
+    if x_start is None:
+        X[:n] = model.nodes
+    else:
+        xs = np.asarray(x_start, dtype=float)
+        if xs.shape != (n, 3) or not np.all(np.isfinite(xs)):
+            raise DRError(f"x_start must be a finite ({n}, 3) array of positions (mm)")
+        X[:n] = np.where(model.fixed, model.nodes, xs)
+    free = (~model.fixed).astype(float)
+    tensor = masses == "tensor"
+    G = np.zeros_like(X)
+    S = np.zeros(X.shape[0])
+    D = np.zeros((X.shape[0] if tensor else 0, 6))
+    M, Minv = np.zeros((n, 6)), np.zeros((n, 6))
+    loads = model.loads
+    R = np.zeros((n, 3))
+    f_start, _ = itg.residual(X, P, G, D, loads, free, R)
+    _update_masses(X, P, S, D, free, mass_safety, M, Minv, tensor)
+    force_floor = max(float(np.max(np.linalg.norm(loads, axis=1))), f_start, 1e-300)
+    runaway = max(float(np.linalg.norm(np.ptp(X[:n], axis=0))), 1e-9)
+    budget = min([getattr(c, "budget", np.inf) for c in checks], default=np.inf)
+    watched = np.zeros(n, dtype=bool)
+    for c in checks:
+        watched[getattr(c, "nodes", np.arange(n))] = True
+
+    # first half step from rest: v(dt/2) = dt/2 M^-1 R, then x(dt)
+    V = np.zeros((n, 3))
+    itg._accelerate(V, R, Minv, free, n, 0.0)
+    V *= 0.5
+    X[:n] += V
+    itg.residual(X, P, G, D, loads, free, R)
+    if tensor:
+        itg.build_masses(D, S, free, 0.5 * mass_safety, M, Minv)
+
+    it, peaks = 1, 0
+    history: list[tuple[int, float]] = []
+    status, message = "max_iterations", ""
+    good = X.copy()
+    bar = tqdm(total=int(max_iterations), desc="DR", unit="step", disable=not progress, leave=False)
+    try:
+        while True:
+            steps_left = int(max_iterations) - it
+            code, steps, pk, fmax, rmax = itg.run(
+                X, V, R, M, Minv, S, D, free, loads, P, G, 0.5 * mass_safety,
+                min(chunk, steps_left), budget, watched, tol, force_floor, runaway,
+            )
+            it += steps
+            peaks += pk
+            bar.update(steps)
+            rel = rmax / max(fmax, force_floor)
+            history.append((it, rel))
+            bar.set_postfix_str(f"residual {rel:.2e}")
+            if code in (itg.NONFINITE, itg.RUNAWAY):
+                X[:] = good
+                status = "diverged"
+                why = "a value became NaN/inf" if code == itg.NONFINITE else f"a node jumped more than the model size ({runaway:.3g} mm) in one step"
+                message = (
+                    f"DR diverged at iteration {it} ({why}); the last finite state (iteration "
+                    f"{history[-2][0] if len(history) > 1 else 1}) is returned. The time step is "
+                    f"unstable with mass_safety = {mass_safety:g}: raise it (2 is safe)"
+                )
+                break
+            hit = next((msg for msg in (c(X[:n]) for c in checks) if msg), None)
+            if hit:
+                status, message = "self_contact", f"stopped at iteration {it}: {hit}"
+                break
+            if code == itg.CONVERGED:
+                hit = next((msg for msg in (c(X[:n]) for c in final_checks) if msg), None)
+                if hit:
+                    status, message = "self_contact", f"converged in {it} iterations to a state with {hit}"
+                else:
+                    status = "converged"
+                    message = f"converged in {it} iterations ({peaks} kinetic-energy peaks), residual {rel:.2e}"
+                break
+            if it >= max_iterations:
+                message = (
+                    f"not converged: max_iterations = {int(max_iterations)} reached with relative "
+                    f"residual {rel:.2e} (tol {tol:g}), {peaks} kinetic-energy peaks"
+                )
+                break
+            _update_masses(X, P, S, D, free, mass_safety, M, Minv, tensor)
+            good[:] = X
+    finally:
+        bar.close()
+    residual_now = history[-1][1]
+    return make_result(
+        model, P, X, status == "converged", status, message, it, residual_now,
+        np.array(history), time.perf_counter() - t0,
+        {"ke_peaks": peaks, "mass_safety": mass_safety, "masses": masses},
+    )
+
+
+def _update_masses(X, P, S, D, free, safety, M, Minv, tensor) -> None:
+    """Rebuild the isotropic stiffness part S (beams, strips; all of it for scalar masses)
+    and the masses; a free node that nothing resists is an input error."""
+    stiffness(X, P, S, not tensor)
+    diag = S[: P.n] + (D[: P.n, :3].min(axis=1) if tensor else 0.0)
+    loose = np.flatnonzero((diag <= 0) & free.any(axis=1))
+    if loose.size:
+        raise DRError(
+            f"node {loose[0]} can move but no element resists it (no stiffness); connect it to "
+            "an element or support it"
+        )
+    itg.build_masses(D, S, free, 0.5 * safety, M, Minv)
+
+
+def element_forces(model: Model, P: Packed, X: np.ndarray) -> dict[str, np.ndarray]:
+    """Link and cluster tensions (N) and beam bending moments at nodes (N mm)."""
+    out: dict[str, np.ndarray] = {}
+    i, j = P.link_ij.T
+    L = np.linalg.norm(X[j] - X[i], axis=1)
+    t = P.link_EA / P.link_L0 * (L - P.link_L0)
+    out["link_tension"] = np.where(P.link_tension_only & (t < 0), 0.0, t)
+    seg_len = np.linalg.norm(X[P.clu_seg[:, 1]] - X[P.clu_seg[:, 0]], axis=1)
+    total = np.bincount(P.clu_seg_cluster, weights=seg_len, minlength=P.clu_L0.size)
+    tc = P.clu_EA / P.clu_L0 * (total - P.clu_L0)
+    out["cluster_tension"] = np.where(P.clu_tension_only & (tc < 0), 0.0, tc)
+    moment = np.zeros(P.n)
+    if P.beam_idx.size:
+        s, b, f = P.beam_idx.T
+        a, c = X[b] - X[s], X[f] - X[b]
+        kap = 2 * np.linalg.norm(np.cross(a, c), axis=1) / (
+            np.linalg.norm(a, axis=1) * np.linalg.norm(c, axis=1) * np.linalg.norm(X[f] - X[s], axis=1)
+        )
+        np.add.at(moment, b[b < P.n], (P.beam_EI * (kap - P.beam_k0))[b < P.n])
+    if P.strip_idx.size:
+        meas = strip_measures(X, P.strip_idx)
+        m_w = P.strip_par[:, EIW] * (meas[:, 0] - P.strip_par[:, KW0]) / P.strip_par[:, LBAR]
+        np.add.at(moment, P.strip_idx[:, 1], m_w)
+        out["strip_twist"] = meas[:, 2] - P.strip_par[:, TAU0]
+        out["strip_strong_curvature"] = meas[:, 1] - P.strip_par[:, KN0]
+    out["node_moment"] = moment
+    return out
+
+
+def make_result(
+    model: Model,
+    P: Packed,
+    X: np.ndarray,
+    converged: bool,
+    status: str,
+    message: str,
+    iterations: int,
+    residual: float,
+    history: np.ndarray,
+    wall_time: float,
+    info: dict,
+) -> Result:
+    """Assemble the shared Result (energies, element forces, VTK blocks) of a DR state."""
+    place_virtual(X, P)
+    e_mem, e_bend, e_twist, e_ax = energy(X, P)
+    en = {
+        "membrane": e_mem,
+        "frame_bending": e_bend,
+        "frame_torsion": e_twist,
+        "frame_axial": e_ax,
+        "total": e_mem + e_bend + e_twist + e_ax,
+    }
+    forces = element_forces(model, P, X)
+    n = P.n
+    # display: offsets and ghosts are drawn at the frame node they belong to
+    real = np.arange(X.shape[0])
+    real[n : n + P.off_geo.shape[0]] = P.off_geo[:, 1]
+    blocks: dict[str, CellBlock] = {}
+    mem = ~P.link_frame
+    if mem.any():
+        blocks["membrane_links"] = CellBlock("line", real[P.link_ij[mem]], {"tension_N": forces["link_tension"][mem]})
+    if P.clu_seg.size:
+        blocks["membrane_clusters"] = CellBlock(
+            "line",
+            real[P.clu_seg],
+            {"tension_N": forces["cluster_tension"][P.clu_seg_cluster], "cluster_id": P.clu_seg_cluster.astype(float)},
+        )
+    if P.link_frame.any():
+        blocks["frame"] = CellBlock("line", real[P.link_ij[P.link_frame]], {"axial_force_N": forces["link_tension"][P.link_frame]})
+    if model.triangles is not None:
+        blocks["membrane_surface"] = CellBlock("triangle", model.triangles)
+    point_data = {
+        "bending_moment_Nmm": forces["node_moment"],
+        "fixed": model.fixed.any(axis=1).astype(float),
+        "load_N": model.loads,
+    }
+    frame_nodes = frame_s = None
+    if model._beams:
+        chain = model._beams[0].chain
+        frame_nodes = chain
+        seg = np.linalg.norm(np.diff(model.nodes[chain], axis=0), axis=1)
+        frame_s = np.concatenate([[0.0], np.cumsum(seg)])
+    info = dict(info)
+    info.update({k: v for k, v in forces.items()})
+    return Result(
+        solver="dr",
+        x=X[:n].copy(),
+        x0=model.nodes.copy(),
+        converged=converged,
+        status=status,
+        message=message,
+        iterations=int(iterations),
+        residual=float(residual),
+        wall_time=float(wall_time),
+        energy=en,
+        residual_history=history,
+        frame_nodes=frame_nodes,
+        frame_s=frame_s,
+        blocks=blocks,
+        point_data=point_data,
+        info=info,
+    )
