@@ -197,3 +197,27 @@ class RodProblem:
         g = g - self.loads
         scale = max(np.abs(self.loads).max(), 1e-30)
         return Evaluation(sum(parts.values()) - self.loads @ y, parts, g, K, scale)
+
+
+class MembraneProblem:
+    """A lone membrane on any scikit-fem vector basis, held nodes, dead nodal loads (N).
+
+    Energy = W_membrane(x) - loads . y; for checks against closed forms (pressure, patches).
+    """
+
+    def __init__(self, membrane: Membrane, lam: float, held: np.ndarray, loads: np.ndarray):
+        self.membrane = membrane
+        self.lam = lam
+        self.n_dofs = 3 * membrane.n_nodes
+        self.free = np.flatnonzero(~np.repeat(held, 3))
+        self.loads = np.asarray(loads, dtype=float).ravel()
+        self.mass = _mass_form.assemble(membrane.basis).tocsr()
+
+    def energy(self, y: np.ndarray) -> float:
+        return self.membrane.energy(y.reshape(-1, 3), self.lam) - self.loads @ y
+
+    def evaluate(self, y: np.ndarray, order: int = 2) -> Evaluation:
+        e, g, K = self.membrane.evaluate(y.reshape(-1, 3), self.lam, order)
+        scale = max(float(np.linalg.norm(g.reshape(-1, 3), axis=1).max()),
+                    float(np.abs(self.loads).max()), 1e-30)
+        return Evaluation(e - self.loads @ y, {"membrane": e}, g - self.loads, K, scale, g)
