@@ -19,6 +19,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 import scipy.sparse as sp
 import triangle as tr
+from matplotlib.tri import Triangulation
 from skfem import Basis, ElementTriP1, ElementTriP2, ElementVector, MeshTri1, MeshTri2
 
 from scenes import Scene, SceneError
@@ -65,19 +66,52 @@ class MembraneMesh:
     def n_nodes(self) -> int:
         return self.nodes.shape[0]
 
-    def interpolation(self, points: np.ndarray) -> sp.csr_matrix:
-        """Sparse (m, nn) matrix of the shape-function values at reference points (m, 2) mm."""
-        cells = self.linear.element_finder()(points[:, 0], points[:, 1])
+    def interpolation(self, points: np.ndarray, cells: np.ndarray | None = None,
+                      gradients: bool = False) -> list[sp.csr_matrix]:
+        """Sparse (m, nn) matrices of the shape-function values (and, with ``gradients``, their
+        x and y derivatives) at reference points (m, 2) mm, optionally in given cells."""
+        if cells is None:
+            cells = self.linear.element_finder()(points[:, 0], points[:, 1])
         scalar = Basis(self.mesh, ELEMENTS[self.element]())
         local = scalar.mapping.invF(points.T[:, :, None], tind=cells)
-        phis = np.array([scalar.elem.gbasis(scalar.mapping, local, k, tind=cells)[0].value[:, 0]
-                         for k in range(scalar.Nbfun)])  # (nbfun, m)
+        fields = [scalar.elem.gbasis(scalar.mapping, local, k, tind=cells)[0]
+                  for k in range(scalar.Nbfun)]
+        parts = [np.array([np.asarray(f)[:, 0] for f in fields])]  # (nbfun, m)
+        if gradients:
+            parts += [np.array([f.grad[j][:, 0] for f in fields]) for j in range(2)]
         rows = np.tile(np.arange(points.shape[0]), scalar.Nbfun)
         cols = scalar.element_dofs[:, cells].ravel()
-        P = sp.coo_matrix((phis.ravel(), (rows, cols)), shape=(points.shape[0], scalar.N)).tocsr()
-        P.data[np.abs(P.data) < 1e-14] = 0.0
-        P.eliminate_zeros()
-        return P
+        out = []
+        for values in parts:
+            P = sp.coo_matrix((values.ravel(), (rows, cols)), shape=(points.shape[0], scalar.N)).tocsr()
+            P.data[np.abs(P.data) < 1e-14 * np.abs(P.data).max()] = 0.0
+            P.eliminate_zeros()
+            out.append(P)
+        return out
+
+    def transfer(self, x: np.ndarray, fine: "MembraneMesh") -> np.ndarray:
+        """Node positions (nn_fine, 3) on a finer mesh of the same region, from positions x
+        (nn, 3) on this one: interpolated, and outside this mesh's straight-edged boundary
+        extrapolated with the local deformation gradient (so the curved outline's offset turns
+        with the frame)."""
+        lin = self.linear
+        pts = fine.nodes
+        cells = Triangulation(lin.p[0], lin.p[1], lin.t.T).get_trifinder()(pts[:, 0], pts[:, 1])
+        base = pts.copy()
+        out = np.flatnonzero(cells < 0)
+        if out.size:
+            facets = lin.boundary_facets()
+            a, b = lin.p[:, lin.facets[0, facets]].T, lin.p[:, lin.facets[1, facets]].T
+            ab = b - a
+            u = np.clip(np.einsum("mkj,kj->mk", pts[out, None, :] - a[None], ab)
+                        / np.einsum("kj,kj->k", ab, ab), 0.0, 1.0)
+            near = a[None] + u[..., None] * ab[None]
+            k = np.argmin(np.linalg.norm(pts[out, None, :] - near, axis=2), axis=1)
+            base[out] = near[np.arange(out.size), k]
+            cells[out] = lin.f2t[0, facets[k]]
+        P, Gx, Gy = self.interpolation(base, cells, gradients=True)
+        offset = pts - base
+        return P @ x + (Gx @ x) * offset[:, :1] + (Gy @ x) * offset[:, 1:]
 
 
 # ----------------------------------------------------------------------------- boundary

@@ -93,7 +93,7 @@ class DemesProblem:
                 f"the strip's inner edge (b/2 = {width / 2:g} mm inside the frame) leaves the "
                 "membrane region: frame.width is too large for this outline"
             )
-        return self.mesh.interpolation(points)
+        return self.mesh.interpolation(points)[0]
 
     # ------------------------------------------------------------------ states
     def initial_guess(self, lift: bool = True) -> np.ndarray:

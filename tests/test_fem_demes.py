@@ -1,0 +1,184 @@
+"""The coupled DEMES model: tangent vs finite differences, rigid-body invariance, a solved state
+(stable, symmetric, apex up, all result fields), contact detection, Richardson, bad input."""
+
+from __future__ import annotations
+
+import meshio
+import numpy as np
+import pytest
+from scipy.spatial import cKDTree
+
+import fem_reference
+import scenes
+from fem_reference.contact import frame_contact, segment_distances
+from fem_reference.frame import Rod, RodProperties
+from fem_reference.jet import Jet, cross, dot, unit
+from fem_reference.model import DemesProblem
+from results import ENERGY_KEYS
+
+
+def coarse(model: str = "strip", **changes) -> scenes.Scene:
+    return scenes.paper_demes(1.2, model, **{"mesh.divisions": 6, **changes})
+
+
+def random_state(pb: DemesProblem, amplitude: float, seed: int = 0) -> np.ndarray:
+    rng = np.random.default_rng(seed)
+    y = pb.initial_guess() + amplitude * rng.standard_normal(pb.n_dofs)
+    fixed = np.setdiff1d(np.arange(pb.n_dofs), pb.free)
+    y[fixed] = pb.reference()[fixed]
+    return y
+
+
+@pytest.mark.parametrize("element", ["P1", "P2"])
+@pytest.mark.parametrize("model,offset,law", [
+    ("strip", True, "linear"), ("paper", True, "linear"), ("strip", False, "neo-hookean")])
+def test_coupled_tangent_matches_finite_differences(element, model, offset, law):
+    pb = DemesProblem(coarse(model, **{"frame.film_offset": offset, "membrane.law": law}), 0, element)
+    y = random_state(pb, 0.05)
+    ev = pb.evaluate(y)
+    rng = np.random.default_rng(1)
+    v = np.zeros(pb.n_dofs)
+    v[pb.free] = rng.standard_normal(pb.free.size)
+    h = 1e-6
+    de = (pb.energy(y + h * v) - pb.energy(y - h * v)) / (2 * h)
+    dg = (pb.evaluate(y + h * v, 1).gradient - pb.evaluate(y - h * v, 1).gradient) / (2 * h)
+    Kv = ev.tangent @ v
+    assert de == pytest.approx(ev.gradient @ v, rel=1e-7)
+    assert np.linalg.norm(dg - Kv) <= 1e-6 * np.linalg.norm(Kv)
+    assert abs(ev.tangent - ev.tangent.T).max() <= 1e-10 * abs(ev.tangent).max()
+
+
+@pytest.mark.parametrize("model", ["strip", "paper"])
+def test_energy_is_invariant_under_rigid_motion(model):
+    # membrane and a free (unsupported) rod with a film offset on the scene's mesh
+    pb = DemesProblem(coarse(model, **{"frame.film_offset": True}), 0, "P2")
+    fr = pb.scene.frame
+    chain = pb.mesh.frame_nodes
+    rod = Rod(pb.X, chain, True, np.zeros(pb.X.shape[0], bool),
+              RodProperties(model, fr.EA, fr.EI, fr.EI_strong, fr.GJ),
+              pb._directors(chain, fr.width), fr.film_offset_distance)
+    x = random_state(pb, 0.3, seed=2).reshape(-1, 3)
+    angle = np.radians(140.0)
+    axis = np.array([1.0, 2.0, 0.5]) / np.linalg.norm([1.0, 2.0, 0.5])
+    K = np.array([[0, -axis[2], axis[1]], [axis[2], 0, -axis[0]], [-axis[1], axis[0], 0]])
+    Q = np.eye(3) + np.sin(angle) * K + (1 - np.cos(angle)) * K @ K
+    moved = x @ Q.T + [3.0, -7.0, 11.0]
+    e0, g0, _ = rod.evaluate(x, order=1)
+    e1, g1, _ = rod.evaluate(moved, order=1)
+    for key in e0:
+        assert e1[key] == pytest.approx(e0[key], rel=1e-10, abs=1e-14)
+    assert np.allclose(g1.reshape(-1, 3), g0.reshape(-1, 3) @ Q.T, atol=1e-9 * np.abs(g0).max())
+    m0 = pb.membrane.energy(x, 1.2)
+    assert pb.membrane.energy(moved, 1.2) == pytest.approx(m0, rel=1e-12)
+
+
+@pytest.fixture(scope="module")
+def strip_states():
+    return list(fem_reference.sweep(coarse("strip", **{"mesh.divisions": 8}), [1.0, 1.1]))
+
+
+def test_flat_state_at_no_prestretch(strip_states):
+    flat = strip_states[0]
+    assert flat.converged and flat.prestretch == 1.0
+    assert np.array_equal(flat.x, flat.x0) and flat.energy["total"] == 0.0
+
+
+def test_solved_state_is_stable_symmetric_and_curls_up(strip_states):
+    res = strip_states[1]
+    assert res.converged and res.status == "converged", res.message
+    assert res.residual < 1e-8
+    assert res.info["stable"] and res.info["lowest_eigenvalue_N_per_mm3"] > 0
+    assert 0.0 < res.bending_angle < 180.0  # apex up, as the perturbation asks
+    # the scene and the mesh are mirror-symmetric (x -> -x) and so is the state
+    x0 = res.x0
+    _, mirror = cKDTree(x0).query(x0 * [-1.0, 1.0, 1.0])
+    assert np.abs(res.x[mirror] * [-1.0, 1.0, 1.0] - res.x).max() < 1e-6
+    # Newton ends quadratically: the last residual is at most a few times the square of the one
+    # before (in units of the force scale), for every continuation step that took >= 3 steps
+    for step in res.info["newton"]:
+        r = step["residuals"]
+        if len(r) >= 3 and 1e-9 < r[-2] < 1e-3:
+            assert r[-1] <= 1e3 * r[-2] ** 2 + 1e-9, r
+
+
+def test_result_fields_and_vtk(strip_states, tmp_path):
+    res = strip_states[1]
+    assert set(res.energy) == set(ENERGY_KEYS)
+    assert res.energy["total"] == pytest.approx(sum(res.energy[k] for k in ENERGY_KEYS[:-1]))
+    assert res.energy["frame_torsion"] > 0 and res.energy["membrane"] > 0
+    s = res.frame_s
+    assert s[0] == 0.0 and np.all(np.diff(s) > 0) and s[-1] < res.scene.outline.length
+    assert np.allclose(res.x0[res.frame_nodes, :2], res.scene.outline.evaluate(s)[0])
+    assert np.all(res.x0[:, 2] == 0.0)
+    mesh = meshio.read(res.write_vtk(tmp_path / "state.vtu"))
+    names = set(mesh.cell_data)
+    for name in ("strain_energy_density_N_per_mm", "stress_principal_1_MPa",
+                 "stress_principal_2_MPa", "bending_moment_N_mm", "axial_force_N"):
+        assert name in names
+    assert "displacement_mm" in mesh.point_data
+
+
+def test_membrane_stress_of_flat_prestretch():
+    # the flat state at lambda (frame held everywhere) carries the closed-form pre-stress
+    pb = DemesProblem(coarse("strip"), 0, "P1")
+    pb.lam = 1.3
+    tensions, _ = pb.membrane.principal_tensions(pb.X, 1.3)
+    assert np.allclose(tensions, 1.5 * 1.0 * 0.05 * 0.3)
+
+
+def test_frame_contact_finds_a_crossing_and_ignores_a_circle():
+    t = np.linspace(0, 2 * np.pi, 200, endpoint=False)
+    circle = np.column_stack([np.cos(t), np.sin(t), np.zeros_like(t)])
+    held = np.zeros(t.size, bool)
+    assert frame_contact(circle, held, 0.01) is None
+    eight = np.column_stack([np.sin(t), np.sin(t) * np.cos(t), 0.001 * np.cos(t)])
+    found = frame_contact(eight, held, 0.01)
+    assert found is not None and found.value < 0.01 and np.linalg.norm(found.where) < 0.05
+
+
+def test_segment_distance_against_sampling():
+    rng = np.random.default_rng(5)
+    p0, p1, q0, q1 = rng.standard_normal((4, 50, 3))
+    d, _ = segment_distances(p0, p1, q0, q1)
+    u = np.linspace(0, 1, 401)
+    P = p0[:, None] + u[None, :, None] * (p1 - p0)[:, None]
+    Q = q0[:, None] + u[None, :, None] * (q1 - q0)[:, None]
+    brute = np.linalg.norm(P[:, :, None] - Q[:, None, :], axis=3).min(axis=(1, 2))
+    assert np.all(d <= brute + 1e-12) and np.all(brute - d < 1e-4)
+
+
+def test_jet_matches_finite_differences():
+    rng = np.random.default_rng(6)
+    v = rng.standard_normal((4, 2, 3))
+
+    def f(J):
+        a, b = J[:, 0], J[:, 1]
+        return dot(unit(cross(a, b)), a) + dot(a, b).sqrt() / (1.0 + dot(b, b))
+
+    J = f(Jet.variables(v + [0.0, 0.0, 3.0]))
+    h = 1e-5
+    for i in range(6):
+        e = np.zeros(6)
+        e[i] = h
+        vp = f(Jet.variables(v + [0.0, 0.0, 3.0] + e.reshape(2, 3)))
+        vm = f(Jet.variables(v + [0.0, 0.0, 3.0] - e.reshape(2, 3)))
+        assert np.allclose((vp.val - vm.val) / (2 * h), J.grad[:, i], atol=1e-8)
+        assert np.allclose((vp.grad - vm.grad) / (2 * h), J.hess[:, i], atol=1e-7)
+
+
+def test_richardson_recovers_order_and_limit():
+    q = [7.0 + 3.0 * h**1.5 for h in (1.0, 0.5, 0.25)]
+    est = fem_reference.richardson(q)
+    assert est.observed and est.order == pytest.approx(1.5)
+    assert est.extrapolated == pytest.approx(7.0, abs=1e-12)
+    assert est.error == pytest.approx(1.25 * abs(7.0 - q[-1]), rel=1e-12)
+
+
+@pytest.mark.parametrize("changes,field", [
+    ({"refinement": -1}, "fem.refinement"),
+    ({"prestretches": [0.8]}, "pre-stretch"),
+])
+def test_bad_input_names_the_field(changes, field):
+    scene = coarse()
+    with pytest.raises(scenes.SceneError, match=field):
+        list(fem_reference.sweep(scene, changes.get("prestretches", [1.1]), changes.get("refinement")))
