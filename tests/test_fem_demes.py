@@ -182,3 +182,18 @@ def test_bad_input_names_the_field(changes, field):
     scene = coarse()
     with pytest.raises(scenes.SceneError, match=field):
         list(fem_reference.sweep(scene, changes.get("prestretches", [1.1]), changes.get("refinement")))
+
+
+def test_neo_hookean_compression_is_measured():
+    from fem_reference.output import compressed_fraction, slack_fraction
+
+    pb = DemesProblem(coarse("strip", **{"membrane.law": "neo-hookean"}), 0, "P1")
+    pb.lam = 1.3
+    flat = pb.reference()
+    assert compressed_fraction(pb, flat) == 0.0
+    squeezed = (pb.X * [0.6, 0.6, 1.0]).ravel()  # 0.6 * 1.3 < 1: compressed everywhere
+    assert compressed_fraction(pb, squeezed) == pytest.approx(1.0)
+    lin = DemesProblem(coarse("strip"), 0, "P1")
+    lin.lam = 1.3
+    assert slack_fraction(lin, squeezed) == pytest.approx(1.0)
+    assert slack_fraction(lin, flat) == 0.0
