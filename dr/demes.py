@@ -155,6 +155,8 @@ def solve(scene: Scene, prestretch: float | None = None, x_start: np.ndarray | N
         dm.model, tol=st.tolerance, mass_safety=st.mass_safety, max_iterations=st.max_iterations,
         x_start=dm.start if x_start is None else x_start, checks=dm.checks,
         final_checks=dm.final_checks, progress=progress,
+        # a cable's force at 1 % strain: the force scale of a state that relaxes to no stress
+        force_scale=0.01 * scene.membrane.E * dm.cable_area,
     )
     res.scene = scene if lam == scene.prestretch else scene.updated(prestretch=lam)
     res.prestretch = lam

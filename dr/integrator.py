@@ -45,6 +45,9 @@ def build_masses(D, S, free, half_safety, M, Minv):
     for i in range(M.shape[0]):
         s = S[i]
         if D.shape[0] > 0:
+            # a direction without stiffness (a slack planar net, out of its plane) gets a
+            # sliver of the node's mass rather than none
+            s += 1e-6 * (D[i, 0] + D[i, 1] + D[i, 2])
             a, b, c = D[i, 0] + s, D[i, 1] + s, D[i, 2] + s
             d = D[i, 3] * free[i, 0] * free[i, 1]
             e = D[i, 4] * free[i, 0] * free[i, 2]

@@ -69,7 +69,7 @@ class Model:
         self._links: list[tuple[np.ndarray, ...]] = []
         self._clusters: list[tuple[np.ndarray, float, float, bool]] = []
         self._beams: list[_Beam] = []
-        self._clamps: dict[int, tuple[np.ndarray, bool]] = {}
+        self._clamps: dict[int, tuple[np.ndarray, bool, np.ndarray]] = {}
         self._offsets: list[tuple[int, float]] = []
         self._offset_ref: list[np.ndarray] = []  # their reference positions, mm
         self.triangles: np.ndarray | None = None  # optional surface for VTK output
@@ -111,16 +111,26 @@ class Model:
         for a in axes:
             self.fixed[idx, "xyz".index(a)] = True
 
-    def clamp(self, i: int, tangent: Sequence[float], taped: bool = False) -> None:
+    def clamp(
+        self,
+        i: int,
+        tangent: Sequence[float],
+        taped: bool = False,
+        rest_tangent: Sequence[float] | None = None,
+    ) -> None:
         """Pin node ``i`` and fix the tangent of the beam that ends there.
 
         Second-order clamp (DESIGN.md): a moving ghost, the mirror image of the beam's next node
         across the plane through node i normal to ``tangent``, with the clamp triplet's moment
-        at half weight. ``taped`` also holds a strip's normal at +z there (the strip is taped
-        flat), which a strip beam needs at a clamped end.
+        at half weight. The beam's rest shape at the clamp has ``rest_tangent`` (default: the
+        clamped tangent, i.e. the beam is clamped as built); a different rest tangent turns the
+        end by a prescribed angle. ``taped`` also holds a strip's normal at +z there (the strip
+        is taped flat), which a strip beam needs at a clamped end.
         """
         k = self._index("clamp node", i)
-        self._clamps[k] = (_unit("clamp tangent", tangent), bool(taped))
+        t = _unit("clamp tangent", tangent)
+        rest = t if rest_tangent is None else _unit("clamp rest_tangent", rest_tangent)
+        self._clamps[k] = (t, bool(taped), rest)
         self.fixed[k] = True
 
     def add_load(self, i: int, force: Sequence[float]) -> None:
@@ -371,10 +381,12 @@ class Model:
             strip_idx=np.array([r[:5] for r in strip_rows], dtype=np.int64).reshape(-1, 5),
             strip_par=np.zeros((len(strip_rows), 9)),
         )
-        # rest curvatures, lengths and strip rest measures from the reference geometry
+        # rest curvatures, lengths and strip rest measures from the reference geometry, with the
+        # clamp ghosts mirrored about the clamps' rest tangents
         X = np.zeros((n + n_off + len(ghosts), 3))
         X[:n] = x
-        place_virtual(X, P)
+        rest_t = np.array([self._clamps[int(self._beams[g[0]].chain[g[1]])][2] for g in ghosts]).reshape(-1, 3)
+        place_virtual(X, P._replace(ghost_t=rest_t))
         if beam_rows:
             s, i, f = P.beam_idx.T
             a, bb = X[i] - X[s], X[f] - X[i]

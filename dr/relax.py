@@ -27,6 +27,7 @@ def relax(
     checks: Sequence[Check] = (),
     final_checks: Sequence[Check] = (),
     masses: str = "tensor",
+    force_scale: float = 0.0,
     progress: bool = False,
     chunk: int = 20_000,
 ) -> Result:
@@ -36,17 +37,17 @@ def relax(
     ----------
     tol
         Convergence when the largest nodal residual and momentum |M v|/dt at free nodes are
-        below ``tol`` times the largest element force (N/N; at least the largest load or the
-        largest element force of the start state, so that a state relaxing to zero force, such
-        as an unloaded structure, converges too).
+        below ``tol`` times the largest element force (N/N), or times the largest load or
+        ``force_scale`` if larger. Below about 1e-8 the momentum of a stiff frame's axial
+        masses reaches the round-off of the positions and DR stalls.
     mass_safety
         Safety factor f of the fictitious masses M = f dt^2/2 K (K a stiffness bound; f >= 1
         is stable, 2 is safe).
     max_iterations
         Time-step limit.
     x_start
-        Starting positions (n, 3), mm (default: the reference geometry). Fixed coordinates keep
-        their reference values.
+        Starting positions (n, 3), mm (default: the reference geometry). Supported coordinates
+        stay where x_start puts them, which is how support displacements are prescribed.
     checks
         Callables (e.g. :class:`dr.FrameContact`) run between chunks on the positions; a
         message stops the run with status 'self_contact'. A check's ``budget`` (mm) bounds how
@@ -57,6 +58,9 @@ def relax(
     masses
         'tensor': direction-dependent masses from each link's stiffness, rebuilt every step
         (a frame node is heavy along the frame only); 'scalar': Barnes' masses f dt^2/2 S.
+    force_scale
+        Smallest force (N) the residual is measured against: the scale of a state whose
+        element forces all vanish (an unstressed structure relaxing back to its rest shape).
     progress
         Show a progress bar with the residual.
     chunk
@@ -92,7 +96,7 @@ def relax(
         xs = np.asarray(x_start, dtype=float)
         if xs.shape != (n, 3) or not np.all(np.isfinite(xs)):
             raise DRError(f"x_start must be a finite ({n}, 3) array of positions (mm)")
-        X[:n] = np.where(model.fixed, model.nodes, xs)
+        X[:n] = xs
     free = (~model.fixed).astype(float)
     tensor = masses == "tensor"
     G = np.zeros_like(X)
@@ -101,9 +105,9 @@ def relax(
     M, Minv = np.zeros((n, 6)), np.zeros((n, 6))
     loads = model.loads
     R = np.zeros((n, 3))
-    f_start, _ = itg.residual(X, P, G, D, loads, free, R)
+    itg.residual(X, P, G, D, loads, free, R)
     _update_masses(X, P, S, D, free, mass_safety, M, Minv, tensor)
-    force_floor = max(float(np.max(np.linalg.norm(loads, axis=1))), f_start, 1e-300)
+    force_floor = max(float(np.max(np.linalg.norm(loads, axis=1))), float(force_scale), 1e-300)
     runaway = max(float(np.linalg.norm(np.ptp(X[:n], axis=0))), 1e-9)
     budget = min([getattr(c, "budget", np.inf) for c in checks], default=np.inf)
     watched = np.zeros(n, dtype=bool)
@@ -181,7 +185,7 @@ def _update_masses(X, P, S, D, free, safety, M, Minv, tensor) -> None:
     """Rebuild the isotropic stiffness part S (beams, strips; all of it for scalar masses)
     and the masses; a free node that nothing resists is an input error."""
     stiffness(X, P, S, not tensor)
-    diag = S[: P.n] + (D[: P.n, :3].min(axis=1) if tensor else 0.0)
+    diag = S[: P.n] + (D[: P.n, :3].max(axis=1) if tensor else 0.0)
     loose = np.flatnonzero((diag <= 0) & free.any(axis=1))
     if loose.size:
         raise DRError(
