@@ -45,6 +45,9 @@ class MembraneMesh:
         (nn, 2) reference positions of the DOF nodes, mm.
     frame_nodes, frame_s
         Boundary nodes ordered counter-clockwise from the base midpoint, and their arc lengths (mm).
+    frame_inner
+        (nf, 2) for each frame node its point on the strip's inner edge (b/2 inside), mm: a line
+        of mesh edges.
     spacing
         Boundary node spacing along the outline, mm (vertex to vertex).
     cells, cell_type
@@ -58,6 +61,7 @@ class MembraneMesh:
     nodes: np.ndarray
     frame_nodes: np.ndarray
     frame_s: np.ndarray
+    frame_inner: np.ndarray
     spacing: float
     cells: np.ndarray
     cell_type: str
@@ -135,22 +139,43 @@ def _boundary_arc_lengths(landmarks: np.ndarray, start: float, stop: float, h: f
     return np.concatenate(parts)
 
 
-def _triangulate(points: np.ndarray, h: float) -> np.ndarray:
-    """Triangles (k, 3) of the closed polygon ``points`` (m, 2), no new boundary points."""
-    m = points.shape[0]
-    segments = np.column_stack([np.arange(m), np.roll(np.arange(m), -1)])
+def _triangulate(points: np.ndarray, loop: int, extra_segments: np.ndarray, h: float
+                 ) -> tuple[np.ndarray, np.ndarray]:
+    """Triangles of the closed polygon ``points[:loop]`` with further points and interior
+    segments (the bonded strip's inner edge) that every mesh must follow; no new points on any
+    segment."""
+    segments = np.vstack([np.column_stack([np.arange(loop), np.roll(np.arange(loop), -1)]),
+                          extra_segments]).astype(np.int32)
     area = np.sqrt(3.0) / 4.0 * h * h
-    out = tr.triangulate({"vertices": points, "segments": segments}, f"pq30a{area:.10f}Y")
-    if not np.allclose(out["vertices"][:m], points):
+    out = tr.triangulate({"vertices": points, "segments": segments}, f"pq30a{area:.10f}YY")
+    if not np.allclose(out["vertices"][: len(points)], points):
         raise RuntimeError("triangle changed the boundary points; the outline is too coarse")
     return out["vertices"], out["triangles"]
 
 
-def _base_mesh(scene: Scene) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """Vertices (nv, 2), triangles (nt, 3), boundary vertex ids and their arc lengths at h0."""
+def _inner_points(scene: Scene, s: np.ndarray) -> np.ndarray:
+    """Points b/2 inside the outline at arc lengths s: the inner edge of the bonded strip."""
+    p, t = scene.outline.evaluate(s)
+    return p + 0.5 * scene.frame.width * np.column_stack([-t[:, 1], t[:, 0]])
+
+
+def _spaced(a: float, b: float, h: float) -> np.ndarray:
+    """Points from a (included) towards b (excluded) at most h apart."""
+    n = max(1, int(np.ceil(abs(b - a) / h - 1e-9)))
+    return a + (b - a) * np.arange(n) / n
+
+
+def _base_mesh(scene: Scene) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Vertices (nv, 2), triangles (nt, 3), boundary vertex ids, their arc lengths, and their
+    points on the strip's inner edge (nb, 2), at the scene's spacing h0.
+
+    The inner edge of the bonded strip (b/2 inside the centreline) is a line of mesh nodes: the
+    strip's orientation is tied to the film there, and the film kinks along it.
+    """
     o = scene.outline
     h = scene.spacing
     L = o.length
+    half_b = 0.5 * scene.frame.width
     s_apex = o.apex_arc_length()
     landmarks = np.unique(np.concatenate([o.breakpoints(), [s_apex, *scene.base_region()]]))
     if _is_mirror_symmetric(scene):
@@ -159,10 +184,19 @@ def _base_mesh(scene: Scene) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.nda
         right[0, 0] = 0.0
         apex = o.evaluate(s_apex)[0][0]
         apex[0] = 0.0
-        n_sym = max(1, int(np.ceil(apex[1] / h - 1e-9)))
-        y_sym = apex[1] * np.arange(n_sym - 1, 0, -1) / n_sym
-        half = np.vstack([right, apex, np.column_stack([np.zeros_like(y_sym), y_sym])])
-        verts, tris = _triangulate(half, h)
+        inner = _inner_points(scene, np.append(s_right, s_apex))
+        inner[[0, -1], 0] = 0.0
+        H = apex[1]
+        y_sym = np.concatenate([_spaced(H, H - half_b, h), _spaced(H - half_b, half_b, h),
+                                _spaced(half_b, 0.0, h)])[1:]
+        sym = np.column_stack([np.zeros_like(y_sym), y_sym])  # apex side down to y > 0
+        loop = np.vstack([right, apex, sym])
+        nl = len(loop)
+        i_top = len(right) + 1 + int(np.argmin(np.abs(y_sym - (H - half_b))))
+        i_bottom = len(right) + 1 + int(np.argmin(np.abs(y_sym - half_b)))
+        chain = np.concatenate([[i_bottom], nl + np.arange(len(right) - 1), [i_top]])
+        verts, tris = _triangulate(np.vstack([loop, inner[1:-1]]), nl,
+                                   np.column_stack([chain[:-1], chain[1:]]), h)
         on_axis = np.abs(verts[:, 0]) < 1e-9 * o.side_length
         verts[on_axis, 0] = 0.0
         mirror_id = np.arange(len(verts))
@@ -172,14 +206,17 @@ def _base_mesh(scene: Scene) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.nda
         tris = np.vstack([tris, mirror_id[tris][:, ::-1]])
         # boundary: right half 0..len(right) (apex), then the mirrored right half, reversed
         b_right = np.arange(len(right) + 1)
-        s_b_right = np.append(s_right, s_apex)
         b_left = mirror_id[np.arange(1, len(right))][::-1]
-        s_b_left = (L - s_right[1:])[::-1]
-        s_b = _snap(np.concatenate([s_b_right, s_b_left]), landmarks, L)
-        return verts, tris, np.concatenate([b_right, b_left]), s_b
+        s_b = _snap(np.concatenate([np.append(s_right, s_apex), (L - s_right[1:])[::-1]]), landmarks, L)
+        inner_b = np.vstack([inner, (inner[1:-1] * [-1.0, 1.0])[::-1]])
+        return verts, tris, np.concatenate([b_right, b_left]), s_b, inner_b
     s = _boundary_arc_lengths(landmarks, 0.0, L, h)
-    verts, tris = _triangulate(o.evaluate(s)[0], h)
-    return verts, tris, np.arange(s.size), s
+    inner = _inner_points(scene, s)
+    m = s.size
+    ring = m + np.arange(m)
+    verts, tris = _triangulate(np.vstack([o.evaluate(s)[0], inner]), m,
+                               np.column_stack([ring, np.roll(ring, -1)]), h)
+    return verts, tris, np.arange(m), s, inner
 
 
 def _snap(s: np.ndarray, landmarks: np.ndarray, L: float) -> np.ndarray:
@@ -214,10 +251,12 @@ def build_mesh(scene: Scene, refinement: int = 0, element: str = "P1") -> Membra
         raise SceneError(f"fem.element = {element!r} is not one of {', '.join(map(repr, ELEMENTS))}")
     o = scene.outline
     L = o.length
-    verts, tris, b_ids, b_s = _base_mesh(scene)
+    verts, tris, b_ids, b_s, b_inner = _base_mesh(scene)
     mesh = MeshTri1(verts.T.copy(), tris.T.copy())
     s_of = np.full(mesh.p.shape[1], np.nan)
     s_of[b_ids] = b_s
+    inner_of = np.full((mesh.p.shape[1], 2), np.nan)
+    inner_of[b_ids] = b_inner
     for _ in range(int(refinement)):
         facets = mesh.boundary_facets()
         a, b = mesh.facets[:, facets]
@@ -230,11 +269,14 @@ def build_mesh(scene: Scene, refinement: int = 0, element: str = "P1") -> Membra
         mesh = MeshTri1(p, fine.t)
         s_of = np.concatenate([s_of, np.full(p.shape[1] - nv, np.nan)])
         s_of[new] = s_mid
+        inner_of = np.vstack([inner_of, np.full((p.shape[1] - nv, 2), np.nan)])
+        inner_of[new] = 0.5 * (inner_of[a] + inner_of[b])  # the inner edge's new mid node
     linear = mesh
     b_vert = np.flatnonzero(~np.isnan(s_of))
     if not np.array_equal(np.sort(b_vert), np.sort(mesh.boundary_nodes())):
         raise RuntimeError("mesh boundary does not match the outline nodes")
     nodes_s = s_of[b_vert]
+    nodes_inner = inner_of[b_vert]
     nv = mesh.p.shape[1]
     if element == "P2":
         quad = MeshTri2.from_mesh(mesh)
@@ -246,6 +288,7 @@ def build_mesh(scene: Scene, refinement: int = 0, element: str = "P1") -> Membra
         mesh = replace(quad, doflocs=doflocs)
         b_vert = np.concatenate([b_vert, nv + facets])
         nodes_s = np.concatenate([nodes_s, s_mid])
+        nodes_inner = np.vstack([nodes_inner, 0.5 * (inner_of[a] + inner_of[b])])
         t2f = linear.t2f  # local edges (0-1, 1-2, 0-2): VTK triangle6 order
         cells = np.vstack([linear.t, nv + t2f]).T
         cell_type = "triangle6"
@@ -267,6 +310,7 @@ def build_mesh(scene: Scene, refinement: int = 0, element: str = "P1") -> Membra
         nodes=nodes,
         frame_nodes=b_vert[order],
         frame_s=nodes_s[order],
+        frame_inner=nodes_inner[order],
         spacing=scene.spacing / 2**int(refinement),
         cells=cells,
         cell_type=cell_type,

@@ -76,24 +76,16 @@ class DemesProblem:
         self.free = np.flatnonzero(~np.repeat(held, 3))
         self.offset = fr.film_offset_distance
         props = RodProperties(fr.model, fr.EA, fr.EI, fr.EI_strong, fr.GJ)
-        self.rod = Rod(self.X, chain, True, held, props, self._directors(chain, fr.width),
+        self.rod = Rod(self.X, chain, True, held, props, self._directors(),
                        self.offset)
         self.offset_nodes = np.flatnonzero(~held_chain)  # chain positions moved by the offset
         self.mass = _mass_form.assemble(self.mesh.basis).tocsr()
 
-    def _directors(self, chain: np.ndarray, width: float) -> sp.csr_matrix:
-        """Interpolation rows of the director points: b/2 inside each frame edge's midpoint."""
-        Xa, Xb = self.X[chain, :2], self.X[np.roll(chain, -1), :2]
-        t = (Xb - Xa) / np.linalg.norm(Xb - Xa, axis=1)[:, None]
-        inward = np.column_stack([-t[:, 1], t[:, 0]])  # counter-clockwise loop: left is inside
-        points = 0.5 * (Xa + Xb) + 0.5 * width * inward
-        inside = self.scene.outline.contains(points)
-        if not inside.all():
-            raise ValueError(
-                f"the strip's inner edge (b/2 = {width / 2:g} mm inside the frame) leaves the "
-                "membrane region: frame.width is too large for this outline"
-            )
-        return self.mesh.interpolation(points)[0]
+    def _directors(self) -> sp.csr_matrix:
+        """Interpolation rows of the director points: the strip's inner edge (a line of mesh
+        edges b/2 inside the frame) halfway along each frame edge."""
+        inner = self.mesh.frame_inner
+        return self.mesh.interpolation(0.5 * (inner + np.roll(inner, -1, axis=0)))[0]
 
     # ------------------------------------------------------------------ states
     def initial_guess(self, lift: bool = True) -> np.ndarray:

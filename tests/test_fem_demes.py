@@ -56,7 +56,7 @@ def test_energy_is_invariant_under_rigid_motion(model):
     chain = pb.mesh.frame_nodes
     rod = Rod(pb.X, chain, True, np.zeros(pb.X.shape[0], bool),
               RodProperties(model, fr.EA, fr.EI, fr.EI_strong, fr.GJ),
-              pb._directors(chain, fr.width), fr.film_offset_distance)
+              pb._directors(), fr.film_offset_distance)
     x = random_state(pb, 0.3, seed=2).reshape(-1, 3)
     angle = np.radians(140.0)
     axis = np.array([1.0, 2.0, 0.5]) / np.linalg.norm([1.0, 2.0, 0.5])
