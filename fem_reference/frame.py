@@ -200,7 +200,7 @@ class Rod:
             curved = k0 > 0
             root = where(curved, where(curved, e, 1.0).sqrt(), 0.0)
             bending = (e - root * (2.0 * k0) + k0**2) * (pr.EI * w)
-            return bending, bending * 0.0
+            return bending, bending * 0.0  # no torsion in the isotropic model
         dk = kappa - self.rest_kappa
         torsion = dk[:, 0].square() * (pr.GJ * w)
         bending = dk[:, 1].square() * (pr.EI * w) + dk[:, 2].square() * (pr.EI_strong * w)

@@ -102,8 +102,9 @@ class DemesProblem:
         return self.X.ravel().copy()
 
     # ------------------------------------------------------------------ energy
-    def _film_positions(self, x: np.ndarray, order: int):
-        """Membrane node positions and, for order >= 1, the normals jet of the offset map."""
+    def _film_positions(self, x: np.ndarray):
+        """Membrane node positions (the film face at the frame) and the jet of the strip normals
+        that the offset map uses (None without an offset)."""
         xm = x.copy()
         if self.offset == 0.0:
             return xm, None, None
@@ -116,14 +117,14 @@ class DemesProblem:
     def energy(self, y: np.ndarray) -> float:
         """Total energy (N mm) at positions y (3 nn,)."""
         x = y.reshape(-1, 3)
-        xm, _, _ = self._film_positions(x, 0)
+        xm, _, _ = self._film_positions(x)
         rod = self.rod.evaluate(x, order=1)[0]
         return self.membrane.energy(xm, self.lam) + sum(rod.values())
 
     def evaluate(self, y: np.ndarray, order: int = 2) -> Evaluation:
         """Energy parts, gradient and (order 2) tangent at positions y (3 nn,)."""
         x = y.reshape(-1, 3)
-        xm, n, ids = self._film_positions(x, order)
+        xm, n, ids = self._film_positions(x)
         e_m, g_m, K_m = self.membrane.evaluate(xm, self.lam, order)
         rod_e, g_f, K_f = self.rod.evaluate(x, order)
         g, K = g_m.copy(), K_m
@@ -166,7 +167,7 @@ class DemesProblem:
 
     def film_positions(self, y: np.ndarray) -> np.ndarray:
         """Where the membrane nodes are (nn, 3): boundary nodes moved onto the film face."""
-        return self._film_positions(y.reshape(-1, 3), 0)[0]
+        return self._film_positions(y.reshape(-1, 3))[0]
 
 
 class RodProblem:

@@ -2,11 +2,14 @@
 
 Path: lambda = 1 is the flat, stress-free state. Each continuation step raises lambda by at most
 ``MAX_STEP`` and solves by Newton from a secant predictor (the first step from the scene's
-smooth apex-up lift); a failed step is halved. Every converged state's tangent is checked: if it
-has a negative eigenvalue (the flat state loses stability almost at once), the state is pushed
-along the lowest eigenmode, apex up, and solved again, so only stable states are accepted.
-After each step the frame is checked for self-contact and the membrane for folds; the first one
-stops the path, with the pre-stretch located by bisection.
+smooth apex-up lift, as the DR starts; if that ends apex down, from the flat state); a failed
+step is halved, and where the branch ends (a limit point) a long Newton solve looks for the state
+it snaps to. Every converged state's tangent is checked: while it has a negative eigenvalue (the
+flat state loses stability almost at once) the state is pushed along the lowest eigenmode, apex
+up, and solved again, so only stable states are accepted. After each step the frame is checked
+for self-contact and the taut film for folds; the first one stops the path, with the pre-stretch
+located by bisection. Refined levels follow the path on the coarsest mesh and start Newton from
+its states (mesh sequencing), falling back to their own continuation.
 """
 
 from __future__ import annotations
@@ -69,6 +72,14 @@ class Outcome:
         return self.status == "converged"
 
 
+def lowest_free_mode(problem: DemesProblem, y: np.ndarray) -> tuple[float, np.ndarray]:
+    """Lowest eigenvalue (N/mm^3) and mode of the tangent at y over the free DOFs, against the
+    film's mass matrix (per unit area)."""
+    K = problem.evaluate(y, 2).tangent
+    f = problem.free
+    return lowest_mode(K[f][:, f].tocsc(), problem.mass[f][:, f].tocsc())
+
+
 def _neutral_tolerance(scene: Scene) -> float:
     """Eigenvalues (N/mm^3) above minus this count as zero: 1e-6 of E h / side^2, far above
     round-off and far below any physical out-of-plane stiffness of the film."""
@@ -94,10 +105,7 @@ class Continuation:
 
     # ------------------------------------------------------------------ one state
     def _lowest(self, y: np.ndarray) -> tuple[float, np.ndarray]:
-        pb = self.problem
-        K = pb.evaluate(y, 2).tangent
-        f = pb.free
-        return lowest_mode(K[f][:, f].tocsc(), pb.mass[f][:, f].tocsc())
+        return lowest_free_mode(self.problem, y)
 
     def _eigen_push(self, y: np.ndarray, phi_free: np.ndarray) -> np.ndarray | None:
         """Step from saddle y along the mode, apex up, to where the energy is lower."""
@@ -276,7 +284,7 @@ def make_result(problem: DemesProblem, out: Outcome, requested: float, wall: flo
     omega = float("nan")
     if lam > 1.0:
         try:
-            omega = Continuation(problem)._lowest(out.y)[0] if out.converged else float("nan")
+            omega = lowest_free_mode(problem, out.y)[0] if out.converged else float("nan")
         except NotFactorizable:
             pass
     stable = bool(omega > -_neutral_tolerance(scene)) if np.isfinite(omega) else lam == 1.0
@@ -372,8 +380,9 @@ def sweep(scene: Scene, prestretches: Sequence[float], refinement: int | None = 
     ------
     Result
         One per requested pre-stretch, until the path stops (contact, no convergence): the
-        state that stopped it is yielded with its status and nothing after it. ``iterations`` and
-        ``wall_time`` count the work since the previous state.
+        state that stopped it is yielded with its status and nothing after it. ``iterations``
+        (Newton iterations on this mesh) and ``wall_time`` (including the coarse guide's work)
+        count since the previous state.
     """
     lams = _check_prestretches(prestretches)
     level = _refinement(scene, refinement)
