@@ -1,8 +1,7 @@
 """Checks that stop a relaxation with a named reason: frame self-contact, membrane folds.
 
-Each check is called between chunks of time steps with the real node positions and returns
-None or a message. ``budget`` (mm) is how far the fastest node may travel between two checks
-so that nothing can pass through something else unseen.
+Called with the real node positions, a check returns None or a message. The frame-contact
+test also runs inside the compiled time loop (see :func:`dr.integrator.run`).
 """
 
 from __future__ import annotations
@@ -42,16 +41,59 @@ def _segment_distance(p1, q1, p2, q2):
 @njit(cache=True, error_model="numpy")
 def closest_segments(x, seg, closed):
     """Closest pair of non-neighbouring segments of a chain: (distance, a, b)."""
-    k = seg.shape[0]
+    return closest_pair(x, seg, all_pairs(seg.shape[0], closed))
+
+
+@njit(cache=True, error_model="numpy")
+def all_pairs(k, closed):
+    """Index pairs (a, b) of non-neighbouring segments of a chain of k segments."""
+    out = np.empty((k * k // 2 + 1, 2), dtype=np.int64)
+    m = 0
+    for a in range(k):
+        for b in range(a + 2, k):
+            if not (closed and a == 0 and b == k - 1):
+                out[m, 0], out[m, 1] = a, b
+                m += 1
+    return out[:m]
+
+
+@njit(cache=True, error_model="numpy")
+def closest_pair(x, seg, pairs):
+    """Closest of the given segment pairs: (distance, a, b)."""
     best, ba, bb = np.inf, -1, -1
+    for p in range(pairs.shape[0]):
+        a, b = pairs[p, 0], pairs[p, 1]
+        d = _segment_distance(x[seg[a, 0]], x[seg[a, 1]], x[seg[b, 0]], x[seg[b, 1]])
+        if d < best:
+            best, ba, bb = d, a, b
+    return best, ba, bb
+
+
+@njit(cache=True, error_model="numpy")
+def pairs_within(x, seg, closed, reach):
+    """Non-neighbouring segment pairs closer than ``reach``: the candidates of a Verlet list.
+
+    A cheap sphere test (midpoint distance minus half lengths) skips most pairs."""
+    k = seg.shape[0]
+    mid = np.empty((k, 3))
+    half = np.empty(k)
+    for a in range(k):
+        mid[a] = 0.5 * (x[seg[a, 0]] + x[seg[a, 1]])
+        d = x[seg[a, 1]] - x[seg[a, 0]]
+        half[a] = 0.5 * math.sqrt(d @ d)
+    out = np.empty((k * k // 2 + 1, 2), dtype=np.int64)
+    m = 0
     for a in range(k):
         for b in range(a + 2, k):
             if closed and a == 0 and b == k - 1:
                 continue
-            d = _segment_distance(x[seg[a, 0]], x[seg[a, 1]], x[seg[b, 0]], x[seg[b, 1]])
-            if d < best:
-                best, ba, bb = d, a, b
-    return best, ba, bb
+            dm = mid[a] - mid[b]
+            if math.sqrt(dm @ dm) - half[a] - half[b] > reach:
+                continue
+            if _segment_distance(x[seg[a, 0]], x[seg[a, 1]], x[seg[b, 0]], x[seg[b, 1]]) < reach:
+                out[m, 0], out[m, 1] = a, b
+                m += 1
+    return out[:m]
 
 
 @njit(cache=True, error_model="numpy")
@@ -89,7 +131,6 @@ class FrameContact:
         self.nodes = c
         self.closed = closed
         self.distance = float(distance)
-        self.budget = 0.5 * self.distance
 
     def __call__(self, x: np.ndarray) -> str | None:
         d, a, b = closest_segments(x, self.segments, self.closed)
@@ -108,8 +149,6 @@ class MembraneFold:
     ``triangles`` must be consistently oriented; ``cos_limit`` is the cosine between adjacent
     normals below which the surface counts as folded (-0.5: more than 120 deg between them).
     """
-
-    budget = np.inf
 
     def __init__(self, triangles: np.ndarray, cos_limit: float = -0.5) -> None:
         tri = np.asarray(triangles, dtype=np.int64)

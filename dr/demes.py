@@ -24,7 +24,7 @@ class DemesModel:
     model: Model
     net: Net
     start: np.ndarray  # (n, 3) initial positions with the symmetry-breaking lift, mm
-    checks: list
+    contact: FrameContact | None
     final_checks: list
     mirror: np.ndarray | None  # node index of each node's mirror image (x -> -x), if symmetric
     cable_area: float  # mm^2
@@ -106,6 +106,15 @@ def build(scene: Scene, prestretch: float | None = None) -> DemesModel:
     area = cable_area(scene, net.spacing)
     EA = scene.membrane.E * area
     tension_only = scene.membrane.tension_only
+    if strip or d != 0.0:
+        # the film is bonded across the strip's width: the membrane node that sets an edge's
+        # strip plane cannot slide along the frame (in a clustered net it could, onto the
+        # edge's line, where the plane is undefined). Stress-free film ties hold it in place
+        # and leave it free to turn with the strip.
+        edges = np.stack([chain[:-1], chain[1:]], axis=1) if not closed else np.stack([chain, np.roll(chain, -1)], axis=1)
+        tied = orientation >= nf
+        ends = edges[tied].ravel()
+        m.add_link(ends, np.repeat(orientation[tied], 2), EA)
     for cable in net.cables:
         c = cable.copy()
         c[0], c[-1] = attach[c[0]], attach[c[-1]]
@@ -116,13 +125,12 @@ def build(scene: Scene, prestretch: float | None = None) -> DemesModel:
             m.add_link(c[:-1], c[1:], EA, rest_length=flat / lam, tension_only=tension_only)
 
     start = nodes.copy()
-    start[:, 2] += scene.initial_lift(nodes[:, :2])
-    checks: list = []
-    final_checks: list = []
+    start[:, 2] += np.where(m.fixed[:, 2], 0.0, scene.initial_lift(nodes[:, :2]))
+    contact, final_checks = None, []
     if scene.dr.check_contact:
-        checks = [FrameContact(np.arange(nf), frame.thickness)]
+        contact = FrameContact(np.arange(nf), frame.thickness)
         final_checks = [MembraneFold(net.triangles)]
-    return DemesModel(m, net, start, checks, final_checks, _mirror_map(nodes), area)
+    return DemesModel(m, net, start, contact, final_checks, _mirror_map(nodes), area)
 
 
 def _mirror_map(nodes: np.ndarray) -> np.ndarray | None:
@@ -138,7 +146,7 @@ def asymmetry(x: np.ndarray, mirror: np.ndarray) -> float:
 
 
 def solve(scene: Scene, prestretch: float | None = None, x_start: np.ndarray | None = None,
-          progress: bool = False) -> Result:
+          relift: bool = False, progress: bool = False) -> Result:
     """Equilibrium of ``scene`` by dynamic relaxation (the paper's model).
 
     Parameters
@@ -147,13 +155,19 @@ def solve(scene: Scene, prestretch: float | None = None, x_start: np.ndarray | N
         Pre-stretch ratio (default ``scene.prestretch``).
     x_start
         Start positions (n, 3) mm, e.g. a neighbouring state (default: flat plus the scene's lift).
+    relift
+        Add the scene's lift to ``x_start`` (to restart from a flat state).
     """
     lam = scene.prestretch if prestretch is None else float(prestretch)
     dm = build(scene, lam)
     st = scene.dr
+    if x_start is None:
+        x_start = dm.start
+    elif relift:
+        x_start = x_start + (dm.start - dm.model.nodes)
     res = relax(
         dm.model, tol=st.tolerance, mass_safety=st.mass_safety, max_iterations=st.max_iterations,
-        x_start=dm.start if x_start is None else x_start, checks=dm.checks,
+        x_start=x_start, contact=dm.contact,
         final_checks=dm.final_checks, progress=progress,
         # a cable's force at 1 % strain: the force scale of a state that relaxes to no stress
         force_scale=0.01 * scene.membrane.E * dm.cable_area,
@@ -183,13 +197,15 @@ def solve(scene: Scene, prestretch: float | None = None, x_start: np.ndarray | N
 def sweep(scene: Scene, prestretches: Sequence[float], progress: bool = False) -> Iterator[Result]:
     """States at increasing pre-stretch, each started from the last converged one.
 
-    A state that stops (contact, divergence, no convergence) is yielded as it is, and the next
-    one starts again from the last converged state.
+    A flat state carries no imperfection, so when the last state is flatter than the scene's
+    lift, the lift is put back on top of it. A state that stops (contact, divergence, no
+    convergence) is yielded as it is, and the next one starts again from the last converged
+    state.
     """
-    lams = sorted(float(v) for v in prestretches)
-    x_prev = None
-    for lam in lams:
-        res = solve(scene, lam, x_start=x_prev, progress=progress)
+    x_prev, flat = None, False
+    for lam in sorted(float(v) for v in prestretches):
+        res = solve(scene, lam, x_start=x_prev, relift=flat, progress=progress)
         if res.converged:
             x_prev = res.x
+            flat = np.abs(res.frame_curve()[:, 2]).max() < abs(scene.perturbation.amplitude)
         yield res

@@ -18,10 +18,11 @@ import math
 import numpy as np
 from numba import njit
 
-from .kernels import Packed, gradient
+from .contact import closest_pair, pairs_within
+from .kernels import Packed, gradient, stiffness
 
 # why a chunk of steps ended
-STEPS_DONE, MOVED, CONVERGED, NONFINITE, RUNAWAY = range(5)
+STEPS_DONE, CONTACT, CONVERGED, NONFINITE, RUNAWAY = range(5)
 
 
 @njit(cache=True, error_model="numpy")
@@ -84,7 +85,7 @@ def _accelerate(V, R, Minv, free, n, factor):
 
 @njit(cache=True, error_model="numpy")
 def run(X, V, R, M, Minv, S, D, free, loads, P: Packed, G, half_safety, max_steps,
-        motion_budget, watched, tol, force_floor, runaway):
+        segments, closed, contact_distance, watched, tol, force_floor, runaway, mass_every):
     """Advance up to ``max_steps`` leapfrog steps with kinetic damping.
 
     On entry X[:n] is x(t), V is v(t - dt/2), R is R(t) and M, Minv the masses at x(t). When
@@ -93,9 +94,14 @@ def run(X, V, R, M, Minv, S, D, free, loads, P: Packed, G, half_safety, max_step
     restarts with v = dt/2 M^-1 R(x*).
 
     Stops early when (a) the residual and the momentum |M v|/dt are both below ``tol`` times
-    the largest element force (at least ``force_floor``), (b) the summed largest motion of the
-    ``watched`` nodes (bool, (n,)) exceeds ``motion_budget`` mm (time for a contact check),
-    (c) a value is not finite, or (d) a node moves more than ``runaway`` mm in one step.
+    the largest element force (at least ``force_floor``), (b) two non-neighbouring
+    ``segments`` (node pairs of a chain, ``closed`` or not) come closer than
+    ``contact_distance`` mm, (c) a value is not finite, or (d) a node moves more than
+    ``runaway`` mm in one step. Contact is tested with a Verlet list: pairs within reach
+    d + 2 skin are listed again whenever the ``watched`` nodes (bool, (n,)) may have moved a
+    skin, and the listed pairs are tested whenever they may have moved d/4, so nothing passes
+    through unseen. The stiffness bounds behind the masses are refreshed every
+    ``mass_every`` steps.
 
     Returns (reason, steps, peaks, largest element force, max residual).
     """
@@ -103,8 +109,12 @@ def run(X, V, R, M, Minv, S, D, free, loads, P: Packed, G, half_safety, max_step
     tensor = D.shape[0] > 0
     steps = 0
     peaks = 0
-    moved = 0.0
     fmax, rmax = 0.0, 0.0
+    check = segments.shape[0] > 0
+    skin = 10.0 * contact_distance
+    candidates = pairs_within(X, segments, closed, contact_distance + 2.0 * skin) if check else np.zeros((0, 2), np.int64)
+    moved_list = 0.0
+    moved_check = 0.0
     while steps < max_steps:
         dke = 0.0
         for i in range(n):
@@ -139,11 +149,15 @@ def run(X, V, R, M, Minv, S, D, free, loads, P: Packed, G, half_safety, max_step
             m = _mul(M, i, V[i, 0], V[i, 1], V[i, 2])
             mom_max2 = max(mom_max2, m[0] * m[0] + m[1] * m[1] + m[2] * m[2])
         steps += 1
+        refresh = steps % mass_every == 0
+        if refresh:
+            stiffness(X, P, S, not tensor)
         fmax, rmax = residual(X, P, G, D, loads, free, R)
-        if tensor:
+        if tensor or refresh:
             build_masses(D, S, free, half_safety, M, Minv)
         step_max = math.sqrt(step_max2)
-        moved += math.sqrt(watch_max2)
+        moved_list += math.sqrt(watch_max2)
+        moved_check += math.sqrt(watch_max2)
         if not (math.isfinite(rmax) and math.isfinite(step_max)):
             return NONFINITE, steps, peaks, fmax, rmax
         if step_max > runaway:
@@ -151,6 +165,11 @@ def run(X, V, R, M, Minv, S, D, free, loads, P: Packed, G, half_safety, max_step
         scale = max(fmax, force_floor)
         if rmax <= tol * scale and math.sqrt(mom_max2) <= tol * scale:
             return CONVERGED, steps, peaks, fmax, rmax
-        if moved > motion_budget:
-            return MOVED, steps, peaks, fmax, rmax
+        if check and moved_check > 0.25 * contact_distance:
+            moved_check = 0.0
+            if moved_list > skin:
+                moved_list = 0.0
+                candidates = pairs_within(X, segments, closed, contact_distance + 2.0 * skin)
+            if closest_pair(X, segments, candidates)[0] < contact_distance:
+                return CONTACT, steps, peaks, fmax, rmax
     return STEPS_DONE, steps, peaks, fmax, rmax

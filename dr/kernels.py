@@ -63,6 +63,7 @@ class Packed(NamedTuple):
     beam_l: np.ndarray  # mm, rest length attributed to the node
     strip_idx: np.ndarray  # (k, 5) frame geometry of strip nodes
     strip_par: np.ndarray  # (k, 9) KB, KT, EIW, EIS, GJ, KW0, KN0, TAU0, LBAR
+    strip_blocks: np.ndarray  # (k, 5, 6) scratch: mass blocks in the material frame
 
 
 # ----------------------------------------------------------------------------- frame geometry
@@ -172,6 +173,8 @@ def strip_forward(xl, fixed1, fixed2):
 def strip_local(xl, fixed1, fixed2, par, gl, want_grad):
     """Energy (bending, torsion) of one strip node; its gradient is added to gl (5, 3).
 
+    Also returns the node's material frame (tangent, width direction, strip normal).
+
     E = KB/2 (EI_w (kb.u - kw0)^2 + EI_s (kb.n - kn0)^2) + KT/2 GJ ((n1 x n2).t - tau0)^2,
     KB and KT being the node's weight over its length; the rest values make the flat state
     stress-free.
@@ -183,7 +186,7 @@ def strip_local(xl, fixed1, fixed2, par, gl, want_grad):
     e_bend = 0.5 * kb_ * (par[EIW] * dw * dw + par[EIS] * dn * dn)
     e_twist = 0.5 * kt_ * par[GJ] * dt * dt
     if not want_grad:
-        return e_bend, e_twist
+        return e_bend, e_twist, (tb, uu, nt)
     g_k = add(scale(uu, kb_ * par[EIW] * dw), scale(nt, kb_ * par[EIS] * dn))
     g_uu = scale(kap, kb_ * par[EIW] * dw)
     g_nt = scale(kap, kb_ * par[EIS] * dn)
@@ -208,7 +211,7 @@ def strip_local(xl, fixed1, fixed2, par, gl, want_grad):
     add_to(gl, 1, sub(g_a, g_b), 1.0)
     add_to(gl, 2, g_b, 1.0)
     node_frame_vjp(xl, fixed1, fixed2, n1, l1, n2, l2, nu, ls, g_n1, g_n2, g_nu, gl)
-    return e_bend, e_twist
+    return e_bend, e_twist, (tb, uu, nt)
 
 
 @njit(cache=True, error_model="numpy")
@@ -295,13 +298,62 @@ def add_block(D, i, e, k_axial, k_geo):
     D[i, 5] += kd * e[1] * e[2]
 
 
+@njit(cache=True, error_model="numpy", inline="always")
+def _sym(b):
+    """3x3 matrix entries of a symmetric block stored as (xx, yy, zz, xy, xz, yz)."""
+    return ((b[0], b[3], b[4]), (b[3], b[1], b[5]), (b[4], b[5], b[2]))
+
+
+@njit(cache=True, error_model="numpy")
+def _add_congruent(D, i, B, Q):
+    """D[i] += Q B Q^T for a symmetric 3x3 B and a 3x3 Q (tuples of rows)."""
+    C = (
+        (Q[0][0] * B[0][0] + Q[0][1] * B[1][0] + Q[0][2] * B[2][0],
+         Q[0][0] * B[0][1] + Q[0][1] * B[1][1] + Q[0][2] * B[2][1],
+         Q[0][0] * B[0][2] + Q[0][1] * B[1][2] + Q[0][2] * B[2][2]),
+        (Q[1][0] * B[0][0] + Q[1][1] * B[1][0] + Q[1][2] * B[2][0],
+         Q[1][0] * B[0][1] + Q[1][1] * B[1][1] + Q[1][2] * B[2][1],
+         Q[1][0] * B[0][2] + Q[1][1] * B[1][2] + Q[1][2] * B[2][2]),
+        (Q[2][0] * B[0][0] + Q[2][1] * B[1][0] + Q[2][2] * B[2][0],
+         Q[2][0] * B[0][1] + Q[2][1] * B[1][1] + Q[2][2] * B[2][1],
+         Q[2][0] * B[0][2] + Q[2][1] * B[1][2] + Q[2][2] * B[2][2]),
+    )
+    D[i, 0] += dot(C[0], Q[0])
+    D[i, 1] += dot(C[1], Q[1])
+    D[i, 2] += dot(C[2], Q[2])
+    D[i, 3] += dot(C[0], Q[1])
+    D[i, 4] += dot(C[0], Q[2])
+    D[i, 5] += dot(C[1], Q[2])
+
+
+@njit(cache=True, error_model="numpy")
+def add_rotated(D, i, local, frame):
+    """D[i] += F B F^T for a block B given in the frame F = [t, u, n] (its columns)."""
+    t, u, n = frame
+    _add_congruent(D, i, _sym(local), ((t[0], u[0], n[0]), (t[1], u[1], n[1]), (t[2], u[2], n[2])))
+
+
+@njit(cache=True, error_model="numpy")
+def add_reflected(D, i, block, t):
+    """D[i] += R B R with R = I - 2 t t^T: a ghost's stiffness seen from the node it mirrors."""
+    R = ((1.0 - 2 * t[0] * t[0], -2 * t[0] * t[1], -2 * t[0] * t[2]),
+         (-2 * t[1] * t[0], 1.0 - 2 * t[1] * t[1], -2 * t[1] * t[2]),
+         (-2 * t[2] * t[0], -2 * t[2] * t[1], 1.0 - 2 * t[2] * t[2]))
+    _add_congruent(D, i, _sym(block), R)
+
+
+_SLOT = ((0, 3, 4), (3, 1, 5), (4, 5, 2))
+
+
 @njit(cache=True, error_model="numpy")
 def gradient(X, P, G, D):
     """Energy gradient dE/dX of all elements on the real nodes, in G (n_total, 3).
 
     X must hold the real positions in its first P.n rows; virtual rows are recomputed. If D
-    has rows, the direction-dependent stiffness of links and cables is accumulated in it
-    (see :func:`stiffness`). Returns the largest element force (N) for the relative residual.
+    has rows, direction-dependent stiffness blocks are accumulated in it: the exact block
+    EA/L0 e e^T + |T|/L (I - e e^T) of each link end (a link's stiffness is at most twice
+    its block diagonal), and the strip blocks of :func:`stiffness` turned with the strip's
+    current material frame. Returns the largest element force (N) for the relative residual.
     """
     place_virtual(X, P)
     G[:] = 0.0
@@ -365,15 +417,22 @@ def gradient(X, P, G, D):
         idx = P.strip_idx[k]
         gather(X, idx, xl)
         gl[:] = 0.0
-        strip_local(xl, idx[3] < 0, idx[4] < 0, P.strip_par[k], gl, True)
+        _, _, frame = strip_local(xl, idx[3] < 0, idx[4] < 0, P.strip_par[k], gl, True)
         scatter(G, idx, gl, 1.0)
         for r in range(3):
             fmax = max(fmax, norm(get(gl, r)))
+        if tensor:
+            for r in range(5):
+                if idx[r] >= 0:
+                    add_rotated(D, idx[r], P.strip_blocks[k, r], frame)
     pull_back_virtual(X, G, P)
     if tensor:
         for k in range(P.off_geo.shape[0]):
             for c in range(6):
                 D[P.off_geo[k, 1], c] += D[P.n + k, c]
+        base = P.n + P.off_geo.shape[0]
+        for k in range(P.ghost_src.shape[0]):
+            add_reflected(D, P.ghost_src[k], D[base + k], get(P.ghost_t, k))
     return fmax
 
 
@@ -407,7 +466,7 @@ def energy(X, P):
     for k in range(P.strip_idx.shape[0]):
         idx = P.strip_idx[k]
         gather(X, idx, xl)
-        eb, et = strip_local(xl, idx[3] < 0, idx[4] < 0, P.strip_par[k], gl, False)
+        eb, et, _ = strip_local(xl, idx[3] < 0, idx[4] < 0, P.strip_par[k], gl, False)
         e_bend += eb
         e_twist += et
     return e_mem, e_bend, e_twist, e_ax
@@ -417,14 +476,12 @@ def energy(X, P):
 
 
 @njit(cache=True, error_model="numpy")
-def _strip_gershgorin(xl, fixed1, fixed2, par, rows):
-    """Largest absolute row sum (per local row) of the strip term's Hessian, by central
-    differences of its exact gradient."""
+def _strip_hessian(xl, fixed1, fixed2, par, H):
+    """Hessian (15, 15) of one strip term by central differences of its exact gradient."""
     g_plus = np.zeros((5, 3))
     g_minus = np.zeros((5, 3))
-    h_abs = np.zeros((5, 3))
-    scale_len = norm(sub(get(xl, 2), get(xl, 0)))
-    h = 1e-6 * scale_len
+    h = 1e-6 * norm(sub(get(xl, 2), get(xl, 0)))
+    H[:] = 0.0
     for r in range(5):
         if (r == 3 and fixed1) or (r == 4 and fixed2):
             continue
@@ -437,12 +494,35 @@ def _strip_gershgorin(xl, fixed1, fixed2, par, rows):
             xl[r, c] = x0 - h
             strip_local(xl, fixed1, fixed2, par, g_minus, True)
             xl[r, c] = x0
-            # column (r, c) of the Hessian; by symmetry also the row: accumulate |H|
             for rr in range(5):
                 for cc in range(3):
-                    h_abs[rr, cc] += abs(g_plus[rr, cc] - g_minus[rr, cc]) / (2.0 * h)
+                    H[3 * rr + cc, 3 * r + c] = (g_plus[rr, cc] - g_minus[rr, cc]) / (2.0 * h)
+
+
+@njit(cache=True, error_model="numpy")
+def _strip_blocks(xl, fixed1, fixed2, par, H, out):
+    """Mass blocks of a strip term in its node's material frame, out (5, 6).
+
+    With |H| the absolute value of the (symmetrised) Hessian over the term's m active node
+    blocks, H <= |H| <= m blockdiag(|H|) (Cauchy-Schwarz), so m |H|_rr bounds each node's
+    share. Stored in the frame (t, u, n) so that they can turn with the strip.
+    """
+    Hs = 0.5 * (H + H.T)
+    w, V = np.linalg.eigh(Hs)
+    A = (V * np.abs(w)) @ V.T
+    active = 0
     for r in range(5):
-        rows[r] = max(h_abs[r, 0], h_abs[r, 1], h_abs[r, 2])
+        if not ((r == 3 and fixed1) or (r == 4 and fixed2)):
+            active += 1
+    _, _, frame = strip_local(xl, fixed1, fixed2, np.zeros(9), np.zeros((5, 3)), False)
+    for r in range(5):
+        for a in range(3):
+            for b in range(a, 3):
+                v = 0.0
+                for p in range(3):
+                    for q in range(3):
+                        v += frame[a][p] * A[3 * r + p, 3 * r + q] * frame[b][q]
+                out[r, _SLOT[a][b]] = active * v
 
 
 @njit(cache=True, error_model="numpy")
@@ -454,7 +534,9 @@ def stiffness(X, P, S, with_links):
     each node changes the cable length; they stay scalar because an inner cable node's
     stiffness hangs on the kink of the cable there, which changes every step. Spline beams: the row sums (4, 8, 4) EI/l^3 of a
     triplet's lateral stiffness plus the geometric M/l^2. Strip nodes: Gershgorin row sums
-    of the term's Hessian. Virtual nodes pass theirs to the nodes they are made from.
+    of the term's Hessian (``with_links``), or else its blocks in the strip's material frame,
+    kept in P.strip_blocks for :func:`gradient` to turn with the strip every step. Virtual
+    nodes pass theirs to the nodes they are made from.
     """
     place_virtual(X, P)
     S[:] = 0.0
@@ -499,14 +581,24 @@ def stiffness(X, P, S, with_links):
         S[i] += 8.0 * kb + 2.0 * m / (lm * lm)
         S[f] += 4.0 * kb + m / (lm * lm)
     xl = np.zeros((5, 3))
-    rows = np.zeros(5)
+    H = np.zeros((15, 15))
     for k in range(P.strip_idx.shape[0]):
         idx = P.strip_idx[k]
         gather(X, idx, xl)
-        _strip_gershgorin(xl, idx[3] < 0, idx[4] < 0, P.strip_par[k], rows)
-        for r in range(5):
-            if idx[r] >= 0:
-                S[idx[r]] += rows[r]
+        f1, f2 = idx[3] < 0, idx[4] < 0
+        _strip_hessian(xl, f1, f2, P.strip_par[k], H)
+        if with_links:
+            for r in range(5):
+                if idx[r] >= 0:
+                    row = 0.0
+                    for c in range(3):
+                        acc = 0.0
+                        for j in range(15):
+                            acc += abs(H[3 * r + c, j])
+                        row = max(row, acc)
+                    S[idx[r]] += row
+        else:
+            _strip_blocks(xl, f1, f2, P.strip_par[k], H, P.strip_blocks[k])
     n = P.n
     base = n + P.off_geo.shape[0]
     for k in range(P.off_geo.shape[0]):

@@ -222,7 +222,10 @@ class Model:
         """Add a beam along ``chain``; its rest shape is the reference geometry.
 
         Without ``EI_strong`` it is the isotropic spline beam (Adriaenssens & Barnes):
-        M = EI (kappa - kappa_0) per node triplet. With ``EI_strong`` and ``GJ`` it is a strip:
+        M = EI (|kappa| - kappa_0) per node triplet. Having no material frame it cannot tell
+        which way its rest curvature points, so where it is naturally curved a tilt of the
+        curvature plane costs nothing at first order (energy ~ tilt^4): give ``EI_strong``
+        (= EI for an isotropic section), ``GJ`` and ``orientation`` for a rod that can. With ``EI_strong`` and ``GJ`` it is a strip:
         weak-axis EI, strong-axis EI_strong, torsion GJ, its plane set by ``orientation``
         (one node per edge, e.g. the membrane node next to the edge); the forces are the exact
         gradient of one energy, so the orientation nodes get their reactions. ``EA`` adds an
@@ -380,6 +383,7 @@ class Model:
             beam_l=np.zeros(len(beam_rows)),
             strip_idx=np.array([r[:5] for r in strip_rows], dtype=np.int64).reshape(-1, 5),
             strip_par=np.zeros((len(strip_rows), 9)),
+            strip_blocks=np.zeros((len(strip_rows), 5, 6)),
         )
         # rest curvatures, lengths and strip rest measures from the reference geometry, with the
         # clamp ghosts mirrored about the clamps' rest tangents

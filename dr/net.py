@@ -93,7 +93,7 @@ def build_net(outline: Outline, divisions: int, landmarks: list[float]) -> Net:
     ii, jj = np.meshgrid(np.arange(i0, i0 + span + 2 * jmax), np.arange(jmin, jmax + 1), indexing="ij")
     ii, jj = ii.ravel(), jj.ravel()
     pts = origin + ii[:, None] * s * DIRECTIONS[0] + jj[:, None] * s * DIRECTIONS[1]
-    inside = outline.contains(pts) & (outline.distance(pts) > INNER_MARGIN * s)
+    inside = outline.contains(pts, spacing=s / 8) & (outline.distance(pts) > INNER_MARGIN * s)
     inner_xy = pts[inside]
     if inner_xy.shape[0] < 3:
         raise SceneError(
@@ -139,7 +139,8 @@ def build_net(outline: Outline, divisions: int, landmarks: list[float]) -> Net:
     if tri["vertices"].shape[0] != nodes_xy.shape[0]:
         raise SceneError("mesh.divisions is too small for this outline: the membrane cannot be triangulated")
     t = tri["triangles"].astype(np.int64)
-    area2 = np.cross(nodes_xy[t[:, 1]] - nodes_xy[t[:, 0]], nodes_xy[t[:, 2]] - nodes_xy[t[:, 0]])
+    e1, e2 = nodes_xy[t[:, 1]] - nodes_xy[t[:, 0]], nodes_xy[t[:, 2]] - nodes_xy[t[:, 0]]
+    area2 = e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]
     t[area2 < 0] = t[area2 < 0][:, ::-1]
     nodes = np.zeros((nodes_xy.shape[0], 3))
     nodes[:, :2] = nodes_xy

@@ -11,11 +11,16 @@ from tqdm import tqdm
 from results import CellBlock, Result
 
 from . import integrator as itg
+from .contact import FrameContact
 from .errors import DRError
 from .kernels import EIW, KN0, KW0, LBAR, TAU0, Packed, energy, place_virtual, stiffness, strip_measures
 from .model import Model
 
 Check = Callable[[np.ndarray], "str | None"]
+
+MASS_EVERY = 100
+"""Steps between refreshes of the stiffness bounds behind the masses (tensor masses also
+follow the link directions and strip frames every step)."""
 
 
 def relax(
@@ -24,7 +29,7 @@ def relax(
     mass_safety: float = 2.0,
     max_iterations: int = 2_000_000,
     x_start: np.ndarray | None = None,
-    checks: Sequence[Check] = (),
+    contact: FrameContact | None = None,
     final_checks: Sequence[Check] = (),
     masses: str = "tensor",
     force_scale: float = 0.0,
@@ -48,10 +53,9 @@ def relax(
     x_start
         Starting positions (n, 3), mm (default: the reference geometry). Supported coordinates
         stay where x_start puts them, which is how support displacements are prescribed.
-    checks
-        Callables (e.g. :class:`dr.FrameContact`) run between chunks on the positions; a
-        message stops the run with status 'self_contact'. A check's ``budget`` (mm) bounds how
-        far its ``nodes`` may move between two calls.
+    contact
+        A :class:`dr.FrameContact`: the run stops with status 'self_contact' when its segments
+        touch (checked inside the time loop, often enough that nothing passes through).
     final_checks
         Callables run on the converged state only (e.g. :class:`dr.MembraneFold`: a clustered
         net may fold for a moment on its way and unfold again).
@@ -64,7 +68,7 @@ def relax(
     progress
         Show a progress bar with the residual.
     chunk
-        Steps between residual records, checks and (scalar) mass updates.
+        Steps between residual records (and progress updates).
 
     Returns
     -------
@@ -105,14 +109,14 @@ def relax(
     M, Minv = np.zeros((n, 6)), np.zeros((n, 6))
     loads = model.loads
     R = np.zeros((n, 3))
-    itg.residual(X, P, G, D, loads, free, R)
-    _update_masses(X, P, S, D, free, mass_safety, M, Minv, tensor)
+    _update_masses(X, P, G, S, D, loads, free, R, mass_safety, M, Minv, tensor)
     force_floor = max(float(np.max(np.linalg.norm(loads, axis=1))), float(force_scale), 1e-300)
     runaway = max(float(np.linalg.norm(np.ptp(X[:n], axis=0))), 1e-9)
-    budget = min([getattr(c, "budget", np.inf) for c in checks], default=np.inf)
     watched = np.zeros(n, dtype=bool)
-    for c in checks:
-        watched[getattr(c, "nodes", np.arange(n))] = True
+    segments, closed, distance = np.zeros((0, 2), np.int64), False, 0.0
+    if contact is not None:
+        watched[contact.nodes] = True
+        segments, closed, distance = contact.segments, contact.closed, contact.distance
 
     # first half step from rest: v(dt/2) = dt/2 M^-1 R, then x(dt)
     V = np.zeros((n, 3))
@@ -133,7 +137,8 @@ def relax(
             steps_left = int(max_iterations) - it
             code, steps, pk, fmax, rmax = itg.run(
                 X, V, R, M, Minv, S, D, free, loads, P, G, 0.5 * mass_safety,
-                min(chunk, steps_left), budget, watched, tol, force_floor, runaway,
+                min(chunk, steps_left), segments, closed, distance, watched, tol, force_floor,
+                runaway, MASS_EVERY,
             )
             it += steps
             peaks += pk
@@ -151,9 +156,8 @@ def relax(
                     f"unstable with mass_safety = {mass_safety:g}: raise it (2 is safe)"
                 )
                 break
-            hit = next((msg for msg in (c(X[:n]) for c in checks) if msg), None)
-            if hit:
-                status, message = "self_contact", f"stopped at iteration {it}: {hit}"
+            if code == itg.CONTACT:
+                status, message = "self_contact", f"stopped at iteration {it}: {contact(X[:n])}"
                 break
             if code == itg.CONVERGED:
                 hit = next((msg for msg in (c(X[:n]) for c in final_checks) if msg), None)
@@ -169,7 +173,6 @@ def relax(
                     f"residual {rel:.2e} (tol {tol:g}), {peaks} kinetic-energy peaks"
                 )
                 break
-            _update_masses(X, P, S, D, free, mass_safety, M, Minv, tensor)
             good[:] = X
     finally:
         bar.close()
@@ -181,10 +184,12 @@ def relax(
     )
 
 
-def _update_masses(X, P, S, D, free, safety, M, Minv, tensor) -> None:
-    """Rebuild the isotropic stiffness part S (beams, strips; all of it for scalar masses)
-    and the masses; a free node that nothing resists is an input error."""
+def _update_masses(X, P, G, S, D, loads, free, R, safety, M, Minv, tensor) -> None:
+    """Rebuild the stiffness bounds (beams, cables, strip blocks; all of it for scalar
+    masses), the residual and directional blocks at X, and the masses. A free node that
+    nothing resists is an input error."""
     stiffness(X, P, S, not tensor)
+    itg.residual(X, P, G, D, loads, free, R)
     diag = S[: P.n] + (D[: P.n, :3].max(axis=1) if tensor else 0.0)
     loose = np.flatnonzero((diag <= 0) & free.any(axis=1))
     if loose.size:

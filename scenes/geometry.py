@@ -238,15 +238,25 @@ class Outline:
             x_cross = a[:, 0] + (y - a[:, 1]) * (b[:, 0] - a[:, 0]) / (b[:, 1] - a[:, 1])
         return np.count_nonzero(straddle & (x < x_cross), axis=1) % 2 == 1
 
-    def distance(self, points: np.ndarray, spacing: float | None = None) -> np.ndarray:
-        """Distance (mm) from points (m, 2) to the outline."""
-        poly = self.polyline(spacing or self.side_length / 400)[0]
-        a, b = poly, np.roll(poly, -1, axis=0)
-        ab = b - a
-        ap = points[:, None, :] - a[None]
-        u = np.clip(np.einsum("mkj,kj->mk", ap, ab) / np.einsum("kj,kj->k", ab, ab), 0, 1)
-        closest = a[None] + u[..., None] * ab[None]
-        return np.sqrt(np.min(np.sum((points[:, None, :] - closest) ** 2, axis=2), axis=1))
+    def distance(self, points: np.ndarray) -> np.ndarray:
+        """Exact distance (mm) from points (m, 2) to the outline, piece by piece."""
+        best = np.full(points.shape[0], np.inf)
+        for piece in self.pieces:
+            if piece.length == 0:
+                continue
+            if piece.radius == 0.0:
+                u = np.clip((points - piece.start) @ piece.direction, 0.0, piece.length)
+                d = np.linalg.norm(points - (piece.start + u[:, None] * piece.direction), axis=1)
+            else:
+                rel = points - piece.centre
+                r0 = piece.start - piece.centre
+                ang = np.arctan2(r0[0] * rel[:, 1] - r0[1] * rel[:, 0], rel @ r0) * np.sign(piece.turn)
+                on_arc = np.mod(ang, 2 * np.pi) <= abs(piece.turn)
+                ends = piece.at(np.array([0.0, piece.length]))[0]
+                to_end = np.min(np.linalg.norm(points[:, None, :] - ends[None], axis=2), axis=1)
+                d = np.where(on_arc, np.abs(np.linalg.norm(rel, axis=1) - piece.radius), to_end)
+            best = np.minimum(best, d)
+        return best
 
     # ------------------------------------------------------------ landmarks
     @property

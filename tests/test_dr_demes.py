@@ -1,0 +1,110 @@
+"""DR on DEMES scenes: rest state, symmetry, contact detection, output files."""
+
+import numpy as np
+import pytest
+import pyvista as pv
+
+import dr
+import scenes
+from results import write_pvd
+
+COARSE = {"mesh.divisions": 12}
+
+
+def test_zero_prestretch_relaxes_back_to_flat_with_zero_energy():
+    res = dr.solve(scenes.paper_demes(1.0, "strip", **COARSE))
+    assert res.converged, res.message
+    # the lift (0.5 mm at the apex) is gone; slack membrane nodes carry nothing either way
+    assert np.abs(res.frame_curve()[:, 2]).max() < 1e-4
+    assert res.energy["total"] < 1e-9
+    assert abs(res.bending_angle) < 1e-3
+
+
+def test_paper_frame_fillets_have_no_first_order_out_of_plane_stiffness():
+    """The isotropic spline beam with rest curvature, M = EI (|kappa| - kappa_0), does not see
+    a tilt of its curvature plane at first order: on the fillets an out-of-plane lift costs
+    energy ~ lift^4. At lambda = 1 the energy vanishes and the lift mostly, not exactly, goes."""
+    res = dr.solve(scenes.paper_demes(1.0, "paper", **COARSE))
+    assert res.converged, res.message
+    assert res.energy["total"] < 1e-9
+    lift = np.abs(res.frame_curve()[:, 2]).max()
+    assert lift < 0.02 * scenes.paper_demes(1.0).perturbation.amplitude
+    # the leftover sits on the apex fillet, not on the straight sides
+    s_apex = res.scene.outline.apex_arc_length()
+    s_at_max = res.frame_s[np.argmax(np.abs(res.frame_curve()[:, 2]))]
+    assert abs(s_at_max - s_apex) < res.scene.frame.corner_radius * np.pi / 3
+
+
+def test_pre_stretch_builds_the_rest_lengths():
+    """At lambda the cables' rest lengths are their flat lengths / lambda: in the flat start
+    every cable carries EA (lambda - 1)."""
+    scene = scenes.paper_demes(1.25, **COARSE)
+    built = dr.build(scene)
+    P = built.model.pack()
+    start = built.model.nodes
+    seg = np.linalg.norm(start[P.clu_seg[:, 1]] - start[P.clu_seg[:, 0]], axis=1)
+    length = np.bincount(P.clu_seg_cluster, weights=seg)
+    tension = P.clu_EA / P.clu_L0 * (length - P.clu_L0)
+    assert np.allclose(tension, scene.membrane.E * built.cable_area * 0.25)
+
+
+def test_cable_area_is_the_film_at_the_papers_spacing():
+    """A = sqrt(3)/2 h s gives Table I's 0.08 mm^2 at the paper's ~28 cables per side."""
+    built = dr.build(scenes.paper_demes(1.5))
+    assert built.cable_area == pytest.approx(0.08, rel=0.01)
+
+
+def test_symmetric_scene_gives_a_mirror_symmetric_state():
+    res = dr.solve(scenes.paper_demes(1.3, "strip", **COARSE))
+    assert res.converged, res.message
+    assert res.info["asymmetry_mm"] < 1e-6
+    assert abs(res.apex[0]) < 1e-6
+
+
+def test_asymmetric_perturbation_gives_an_asymmetric_state():
+    res = dr.solve(scenes.paper_demes(1.3, "strip", **COARSE, **{"perturbation.asymmetry": 2.0}))
+    assert res.info["asymmetry_mm"] > 1e-3
+
+
+def test_collapsing_paper_frame_stops_at_self_contact():
+    """The isotropic frame of Table I cannot hold 150 %: its sides are pulled into each
+    other. DR must stop there with a named reason, not pass through or return NaN."""
+    res = dr.solve(scenes.paper_demes(1.5, "paper", **COARSE))
+    assert not res.converged
+    assert res.status == "self_contact"
+    assert "frame self-contact" in res.message and "lambda = 1.500" in res.message
+    assert np.all(np.isfinite(res.x))
+
+
+def test_frame_contact_check_sees_two_segments_meet():
+    x = np.array([[0, 0, 0], [10, 0, 0], [10, 0.05, 0], [0, 0.05, 0]], float)
+    check = dr.FrameContact(np.arange(4), distance=0.1, closed=False)
+    assert check(x) is not None
+    x[2:, 1] = 0.5
+    assert check(x) is None
+
+
+def test_state_writes_vtk_that_pyvista_reads(tmp_path):
+    res = dr.solve(scenes.paper_demes(1.2, "strip", **COARSE))
+    path = res.write_vtk(tmp_path / "state.vtu")
+    grid = pv.read(path)
+    assert grid.n_points == res.x.shape[0]
+    assert np.allclose(grid.points, res.x)
+    for name in ("tension_N", "axial_force_N", "block"):
+        assert name in grid.cell_data
+    assert "displacement_mm" in grid.point_data and "bending_moment_Nmm" in grid.point_data
+    # the membrane is also a surface of triangles
+    assert np.any(grid.celltypes == pv.CellType.TRIANGLE)
+    pvd = write_pvd(tmp_path / "sweep.pvd", [(1.2, path)])
+    series = pv.get_reader(pvd)
+    assert series.time_values == [1.2]
+
+
+def test_sweep_warm_starts_from_the_previous_state():
+    scene = scenes.paper_demes(1.0, "strip", **COARSE)
+    states = list(dr.sweep(scene, [1.1, 1.2]))
+    assert [s.prestretch for s in states] == [1.1, 1.2]
+    cold = dr.solve(scene, 1.2)
+    assert states[1].converged and cold.converged
+    # the warm start needs fewer steps than starting from flat
+    assert states[1].iterations < cold.iterations

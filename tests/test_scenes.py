@@ -1,0 +1,72 @@
+"""Scenes: geometry of the frame outline, landmarks, loading and round trips."""
+
+import numpy as np
+import pytest
+
+import scenes
+from scenes.geometry import Outline, equilateral_triangle
+
+
+def test_paper_scene_holds_table_one():
+    s = scenes.load("demes_paper")
+    assert s.frame.EA == pytest.approx(2600 * 0.5)
+    assert s.frame.EI == pytest.approx(2600 * 0.0003)
+    assert s.frame.EI_strong == pytest.approx(2600 * 0.127 * 4.0**3 / 12)
+    assert s.membrane.E == 1.0 and s.membrane.thickness == 0.05
+    assert s.outline.side_length == pytest.approx(52.0)
+
+
+def test_rounded_triangle_length_and_height():
+    """Fillets of radius r replace each 120 deg-turn corner: length 3 (a - 2 sqrt3 r) + 2 pi r,
+    and the apex drops by r (1/sin 30 - 1) = r."""
+    a, r = 52.0, 5.0
+    o = Outline(equilateral_triangle(a), r)
+    assert o.length == pytest.approx(3 * (a - 2 * np.sqrt(3) * r) + 2 * np.pi * r, rel=1e-12)
+    assert o.height() == pytest.approx(a * np.sqrt(3) / 2 - r, rel=1e-9)
+    assert o.apex_arc_length() == pytest.approx(o.length / 2, rel=1e-6)
+
+
+def test_outline_points_are_on_the_outline_with_unit_tangents():
+    o = Outline(equilateral_triangle(52.0), 5.0)
+    s = np.linspace(0, o.length, 997)
+    p, t = o.evaluate(s)
+    assert np.allclose(np.linalg.norm(t, axis=1), 1.0)
+    # arc length is arc length: chord sums of a fine sampling add up to the length
+    assert np.sum(np.linalg.norm(np.diff(np.vstack([p, p[:1]]), axis=0), axis=1)) == pytest.approx(o.length, rel=1e-4)
+    assert np.allclose(o.distance(p), 0.0, atol=1e-3)
+
+
+def test_line_crossings_lie_on_the_outline():
+    o = Outline(equilateral_triangle(52.0), 5.0)
+    t, s = o.intersect_line(np.array([0.0, 10.0]), np.array([1.0, 0.3]))
+    assert t.size == 2
+    points = np.array([0.0, 10.0]) + t[:, None] * np.array([1.0, 0.3]) / np.hypot(1, 0.3)
+    assert np.allclose(o.evaluate(s)[0], points, atol=1e-9)
+
+
+def test_any_polygon_is_put_base_down_and_counter_clockwise():
+    square_cw = [[0, 0], [0, 10], [10, 10], [10, 0]]
+    o = Outline(np.array(square_cw, float), 1.0)
+    v = o.vertices
+    assert np.allclose(v[0], [-5, 0]) and np.allclose(v[1], [5, 0])
+    area2 = np.sum(v[:, 0] * np.roll(v[:, 1], -1) - np.roll(v[:, 0], -1) * v[:, 1])
+    assert area2 > 0
+    assert o.contains(np.array([[0.0, 5.0]]))[0] and not o.contains(np.array([[0.0, -1.0]]))[0]
+
+
+def test_scene_round_trips_through_a_mapping():
+    s = scenes.paper_demes(1.3, "strip", **{"mesh.divisions": 16})
+    again = scenes.Scene.from_dict(s.to_dict())
+    assert again.to_dict() == s.to_dict()
+    assert again.prestretch == 1.3 and again.frame.model == "strip"
+
+
+def test_landmarks_of_the_taped_base():
+    s = scenes.load("demes_paper")
+    s_right, s_left = s.base_region()
+    (c1, t1), (c2, t2) = s.clamps()
+    assert (c1, c2) == (s_right, s_left)
+    # clamps sit where the base fillets meet the sides, tangents along the sides
+    assert np.allclose(t1[:2], [-0.5, np.sqrt(3) / 2]) and np.allclose(t2[:2], [-0.5, -np.sqrt(3) / 2])
+    pinned = s.updated(**{"supports.base": "pinned"})
+    assert pinned.clamps() == [] and pinned.base_region()[0] < s_right
