@@ -84,6 +84,35 @@ def test_isotropic_beam_with_offsets_is_consistent_where_it_has_an_energy():
     assert np.max(np.abs(g - g_fd)[free]) < 1e-6 * np.abs(g_fd).max()
 
 
+@pytest.mark.parametrize("part", ["weak", "strong", "twist"])
+def test_each_part_of_the_strip_energy_has_its_exact_gradient(part):
+    """Per energy part, on random bent and twisted node geometries, so that a small but wrong
+    term cannot hide behind a large right one."""
+    from dr.kernels import EIS, EIW, GJ, KB, KT, strip_local
+
+    column = {"weak": EIW, "strong": EIS, "twist": GJ}[part]
+    rng = np.random.default_rng(5)
+    for _ in range(40):
+        xl = np.zeros((5, 3))
+        xl[1] = [1.0, 0.0, 0.0] + 0.3 * rng.normal(size=3)
+        xl[2] = xl[1] + [1.0, 0.0, 0.0] + rng.uniform(0.0, 1.2) * rng.normal(size=3)
+        xl[3] = 0.5 * (xl[0] + xl[1]) + [0.0, 1.0, 0.0] + 0.3 * rng.normal(size=3)
+        xl[4] = 0.5 * (xl[1] + xl[2]) + [0.0, 1.0, 0.0] + 0.3 * rng.normal(size=3)
+        par = np.zeros(9)
+        par[KB], par[KT], par[column] = 0.7, 0.9, 1.0
+        par[5:8] = 0.3 * rng.normal(size=3)  # rest curvatures and twist
+        g = np.zeros((5, 3))
+        strip_local(xl, False, False, par, g, True)
+        g_fd = np.zeros((5, 3))
+        for r in range(5):
+            for c in range(3):
+                for sign in (1, -1):
+                    x2 = xl.copy()
+                    x2[r, c] += sign * 1e-6
+                    g_fd[r, c] += sign * sum(strip_local(x2, False, False, par, np.zeros((5, 3)), False)[:2]) / 2e-6
+        assert np.abs(g - g_fd).max() < 1e-6 * np.abs(g_fd).max()
+
+
 def test_flat_reference_of_a_strip_is_stress_free():
     m = strip_model(taped_end=True, offset=0.3)
     P = m.pack()
