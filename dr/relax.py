@@ -18,6 +18,9 @@ from .model import Model
 
 Check = Callable[[np.ndarray], "str | None"]
 
+FOLD_PATIENCE = 10
+"""Chunks in a row with a folded membrane (``final_checks``) after which an unconverged run stops."""
+
 MASS_EVERY = 100
 """Steps between refreshes of the stiffness bounds behind the masses (tensor masses also
 follow the link directions and strip frames every step)."""
@@ -57,8 +60,10 @@ def relax(
         A :class:`dr.FrameContact`: the run stops with status 'self_contact' when its segments
         touch (checked inside the time loop, often enough that nothing passes through).
     final_checks
-        Callables run on the converged state only (e.g. :class:`dr.MembraneFold`: a clustered
-        net may fold for a moment on its way and unfold again).
+        Callables (e.g. :class:`dr.MembraneFold`) for states that must not be accepted: a
+        converged state they flag gets status 'membrane_fold', and so does an unconverged run
+        they flag at FOLD_PATIENCE chunk ends in a row (a clustered net may fold for a moment on
+        its way and unfold again, so a single sighting does not stop it).
     masses
         'tensor': direction-dependent masses from each link's stiffness, rebuilt every step
         (a frame node is heavy along the frame only); 'scalar': Barnes' masses f dt^2/2 S.
@@ -74,8 +79,8 @@ def relax(
     -------
     Result
         The equilibrium (``converged``), or the last state reached with ``status``
-        'max_iterations', 'diverged' (the last finite state) or 'self_contact', and a message
-        with the residual and iteration count.
+        'max_iterations', 'diverged' (the last finite state), 'self_contact' or
+        'membrane_fold', and a message with the residual and iteration count.
     """
     if not (np.isfinite(tol) and tol > 0):
         raise DRError(f"tol = {tol!r} must be a positive number (relative residual, e.g. 1e-6)")
@@ -127,7 +132,7 @@ def relax(
     if tensor:
         itg.build_masses(D, S, free, 0.5 * mass_safety, M, Minv)
 
-    it, peaks = 1, 0
+    it, peaks, folded_chunks = 1, 0, 0
     history: list[tuple[int, float]] = []
     status, message = "max_iterations", ""
     good = X.copy()
@@ -159,13 +164,21 @@ def relax(
             if code == itg.CONTACT:
                 status, message = "self_contact", f"stopped at iteration {it}: {contact(X[:n])}"
                 break
+            hit = next((msg for msg in (c(X[:n]) for c in final_checks) if msg), None)
+            folded_chunks = folded_chunks + 1 if hit else 0
             if code == itg.CONVERGED:
-                hit = next((msg for msg in (c(X[:n]) for c in final_checks) if msg), None)
                 if hit:
-                    status, message = "self_contact", f"converged in {it} iterations to a state with {hit}"
+                    status, message = "membrane_fold", f"converged in {it} iterations to a state with {hit}"
                 else:
                     status = "converged"
                     message = f"converged in {it} iterations ({peaks} kinetic-energy peaks), residual {rel:.2e}"
+                break
+            if folded_chunks >= FOLD_PATIENCE:
+                status = "membrane_fold"
+                message = (
+                    f"stopped at iteration {it}, not converged (relative residual {rel:.2e}): {hit}, "
+                    f"for the last {folded_chunks * chunk} steps; a net folded over has no equilibrium to reach"
+                )
                 break
             if it >= max_iterations:
                 message = (

@@ -76,6 +76,22 @@ def test_collapsing_paper_frame_stops_at_self_contact():
     assert np.all(np.isfinite(res.x))
 
 
+def test_clustered_net_folding_over_is_named():
+    """The collapsing paper frame drags the clustered net into a state where its sliding nodes
+    have passed each other: an equilibrium of cables over pulleys, not of a membrane."""
+    res = dr.solve(scenes.paper_demes(1.2, "paper", **COARSE))
+    assert res.status == "membrane_fold" and not res.converged
+    assert "membrane folded over" in res.message
+
+
+def test_fold_check_sees_a_folded_pair_of_triangles():
+    x = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [1, 1, 0]], float)
+    check = dr.MembraneFold(np.array([[0, 1, 2], [1, 3, 2]]))
+    assert check(x) is None
+    x[3] = [-0.5, -0.5, 0.01]  # node 3 pushed through the edge 1-2: the second triangle flips
+    assert "folded over" in check(x)
+
+
 def test_frame_contact_check_sees_two_segments_meet():
     x = np.array([[0, 0, 0], [10, 0, 0], [10, 0.05, 0], [0, 0.05, 0]], float)
     check = dr.FrameContact(np.arange(4), distance=0.1, closed=False)
