@@ -95,29 +95,27 @@ def test_bad_solver_settings_are_named():
         dr.relax(m, x_start=np.zeros((3, 3)))
 
 
-def test_unstable_time_step_is_reported_not_returned_as_nan():
-    """Masses far below the stability limit (f = 0.05 << 1): DR must say it diverged, name
-    the remedy, and return the last finite state."""
+def small_cantilever() -> dr.Model:
     x = np.zeros((11, 3))
     x[:, 0] = np.arange(11.0)
     m = dr.Model(x)
     m.clamp(0, (1, 0, 0))
     m.add_beam(np.arange(11), EI=1.0, EA=100.0)
     m.add_load(10, (0, 0, -0.01))
-    res = dr.relax(m, mass_safety=0.05, max_iterations=100_000)
+    return m
+
+
+def test_unstable_time_step_is_reported_not_returned_as_nan():
+    """Masses far below the stability limit (f = 0.05 << 1): DR must say it diverged, name
+    the remedy, and return the last finite state."""
+    res = dr.relax(small_cantilever(), mass_safety=0.05, max_iterations=100_000)
     assert res.status == "diverged" and not res.converged
     assert "mass_safety" in res.message
     assert np.all(np.isfinite(res.x))
 
 
 def test_non_convergence_says_so_with_residual_and_iterations():
-    x = np.zeros((11, 3))
-    x[:, 0] = np.arange(11.0)
-    m = dr.Model(x)
-    m.clamp(0, (1, 0, 0))
-    m.add_beam(np.arange(11), EI=1.0, EA=100.0)
-    m.add_load(10, (0, 0, -0.01))
-    res = dr.relax(m, max_iterations=50)
+    res = dr.relax(small_cantilever(), max_iterations=50)
     assert res.status == "max_iterations" and not res.converged
     assert "50" in res.message and "residual" in res.message
 
