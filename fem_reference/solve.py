@@ -102,6 +102,8 @@ class Continuation:
         self.lift = problem.initial_guess() - problem.initial_guess(lift=False)
         self.snaps: list[tuple[float, float]] = []  # (last state on the branch, state snapped to)
         self.up = np.sign(self.scene.perturbation.amplitude) or 1.0  # + : apex up
+        centroids = problem.X[problem.mesh.cells[:, :3], :2].mean(axis=1)
+        self.band = self.scene.outline.distance(centroids) < 0.5 * self.scene.frame.width
 
     # ------------------------------------------------------------------ one state
     def _lowest(self, y: np.ndarray) -> tuple[float, np.ndarray]:
@@ -171,9 +173,11 @@ class Continuation:
         found = frame_contact(x[mesh.frame_nodes], pb.held_chain, self.scene.frame.thickness)
         if found is not None:
             return found
-        # a slack film has no stiffness and its wrinkles are arbitrary: only taut folds count
+        # a slack film has no stiffness and its wrinkles are arbitrary: only taut folds count;
+        # and the band bonded to the strip is left out: the film leaves the strip's inner edge
+        # at an angle (the strip's torque acts there), which is not a fold of the free film
         tension = pb.membrane.principal_tensions(pb.film_positions(y), pb.lam)[0][0].mean(axis=1)
-        taut = tension > 1e-3 * tension.max()
+        taut = (tension > 1e-3 * tension.max()) & ~self.band
         return membrane_fold(x, mesh.cells[:, :3], mesh.linear.f2t, taut)
 
     # ------------------------------------------------------------------ the path
