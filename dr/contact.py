@@ -105,11 +105,21 @@ def most_folded(x, tri, pairs):
         n1 = np.cross(x[t1[1]] - x[t1[0]], x[t1[2]] - x[t1[0]])
         n2 = np.cross(x[t2[1]] - x[t2[0]], x[t2[2]] - x[t2[0]])
         l1, l2 = math.sqrt(n1 @ n1), math.sqrt(n2 @ n2)
-        if l1 == 0.0 or l2 == 0.0:
-            return -1.0, k  # a triangle collapsed to a line: nodes have met
-        c = (n1 @ n2) / (l1 * l2)
+        c = (n1 @ n2) / (l1 * l2) if l1 > 0.0 and l2 > 0.0 else -1.0
         if c < worst:
             worst, where = c, k
+    return worst, where
+
+
+@njit(cache=True, error_model="numpy")
+def most_shrunk(x, edges, rest):
+    """Smallest ratio of an edge's length to its reference length, and that edge."""
+    worst, where = np.inf, -1
+    for k in range(edges.shape[0]):
+        d = x[edges[k, 1]] - x[edges[k, 0]]
+        r = math.sqrt(d @ d) / rest[k]
+        if r < worst:
+            worst, where = r, k
     return worst, where
 
 
@@ -144,13 +154,16 @@ class FrameContact:
 
 
 class MembraneFold:
-    """Stops when the membrane folds over (adjacent triangles face opposite ways) or nodes meet.
+    """Flags a membrane that has folded over (adjacent triangles facing opposite ways) or whose
+    nodes have met (a triangle edge shrunk below ``meet_ratio`` of its reference length).
 
-    ``triangles`` must be consistently oriented; ``cos_limit`` is the cosine between adjacent
-    normals below which the surface counts as folded (-0.5: more than 120 deg between them).
+    ``triangles`` must be consistently oriented over the reference positions ``x0``;
+    ``cos_limit`` is the cosine between adjacent normals below which the surface counts as
+    folded (-0.5: more than 120 deg between them).
     """
 
-    def __init__(self, triangles: np.ndarray, cos_limit: float = -0.5) -> None:
+    def __init__(self, triangles: np.ndarray, x0: np.ndarray, cos_limit: float = -0.5,
+                 meet_ratio: float = 0.01) -> None:
         tri = np.asarray(triangles, dtype=np.int64)
         edges: dict[tuple[int, int], int] = {}
         pairs = []
@@ -163,13 +176,21 @@ class MembraneFold:
                     edges[key] = t
         self.triangles = tri
         self.pairs = np.array(pairs, dtype=np.int64).reshape(-1, 2)
+        self.edges = np.array(sorted(edges), dtype=np.int64).reshape(-1, 2)
+        self.rest = np.linalg.norm(x0[self.edges[:, 1]] - x0[self.edges[:, 0]], axis=1)
         self.cos_limit = cos_limit
+        self.meet_ratio = meet_ratio
 
     def __call__(self, x: np.ndarray) -> str | None:
+        ratio, e = most_shrunk(x, self.edges, self.rest)
+        if ratio < self.meet_ratio:
+            i, j = self.edges[e]
+            p = x[i]
+            return (f"membrane nodes met: nodes {i} and {j} are {ratio * self.rest[e]:.2g} mm apart "
+                    f"(flat: {self.rest[e]:.3g} mm) near ({p[0]:.1f}, {p[1]:.1f}, {p[2]:.1f}) mm")
         c, k = most_folded(x, self.triangles, self.pairs)
         if c >= self.cos_limit:
             return None
-        t = self.triangles[self.pairs[k, 0]]
-        p = x[t].mean(axis=0)
-        what = "nodes met (a triangle collapsed)" if c == -1.0 else f"adjacent triangles at {np.degrees(np.arccos(c)):.0f} deg"
-        return f"membrane folded over: {what} near ({p[0]:.1f}, {p[1]:.1f}, {p[2]:.1f}) mm"
+        p = x[self.triangles[self.pairs[k, 0]]].mean(axis=0)
+        return (f"membrane folded over: adjacent triangles at {np.degrees(np.arccos(max(c, -1.0))):.0f} deg "
+                f"near ({p[0]:.1f}, {p[1]:.1f}, {p[2]:.1f}) mm")

@@ -108,13 +108,14 @@ def build(scene: Scene, prestretch: float | None = None) -> DemesModel:
     tension_only = scene.membrane.tension_only
     if strip or d != 0.0:
         # the film is bonded across the strip's width: the membrane node that sets an edge's
-        # strip plane cannot slide along the frame (in a clustered net it could, onto the
-        # edge's line, where the plane is undefined). Stress-free film ties hold it in place
-        # and leave it free to turn with the strip.
+        # strip plane moves with the strip's cross-section (in a clustered net it could slide
+        # onto the edge's line, where the plane is undefined, and a soft tie lets it be
+        # dragged there). Stress-free ties as stiff as the strip hold it in place and leave
+        # it free to turn with the strip.
         edges = np.stack([chain[:-1], chain[1:]], axis=1) if not closed else np.stack([chain, np.roll(chain, -1)], axis=1)
         tied = orientation >= nf
         ends = edges[tied].ravel()
-        m.add_link(ends, np.repeat(orientation[tied], 2), EA)
+        m.add_link(ends, np.repeat(orientation[tied], 2), frame.EA, role="frame")
     for cable in net.cables:
         c = cable.copy()
         c[0], c[-1] = attach[c[0]], attach[c[-1]]
@@ -129,7 +130,7 @@ def build(scene: Scene, prestretch: float | None = None) -> DemesModel:
     contact, final_checks = None, []
     if scene.dr.check_contact:
         contact = FrameContact(np.arange(nf), frame.thickness)
-        final_checks = [MembraneFold(net.triangles)]
+        final_checks = [MembraneFold(net.triangles, net.nodes)]
     return DemesModel(m, net, start, contact, final_checks, _mirror_map(nodes), area)
 
 

@@ -55,10 +55,13 @@ def test_cable_area_is_the_film_at_the_papers_spacing():
 
 
 def test_symmetric_scene_gives_a_mirror_symmetric_state():
-    res = dr.solve(scenes.paper_demes(1.3, "strip", **COARSE))
+    """Symmetric to within the solver's accuracy: the strip's mass blocks carry round-off
+    that is not mirror-exact, so an unconverged remainder may be asymmetric; at tol 1e-8
+    it is below 1e-5 mm (the lift is 0.5 mm)."""
+    res = dr.solve(scenes.paper_demes(1.3, "strip", **COARSE, **{"dr.tolerance": 1e-8}))
     assert res.converged, res.message
-    assert res.info["asymmetry_mm"] < 1e-6
-    assert abs(res.apex[0]) < 1e-6
+    assert res.info["asymmetry_mm"] < 1e-5
+    assert abs(res.apex[0]) < 1e-5
 
 
 def test_asymmetric_perturbation_gives_an_asymmetric_state():
@@ -86,10 +89,14 @@ def test_clustered_net_folding_over_is_named():
 
 def test_fold_check_sees_a_folded_pair_of_triangles():
     x = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [1, 1, 0]], float)
-    check = dr.MembraneFold(np.array([[0, 1, 2], [1, 3, 2]]))
+    check = dr.MembraneFold(np.array([[0, 1, 2], [1, 3, 2]]), x.copy())
     assert check(x) is None
-    x[3] = [-0.5, -0.5, 0.01]  # node 3 pushed through the edge 1-2: the second triangle flips
-    assert "folded over" in check(x)
+    folded = x.copy()
+    folded[3] = [-0.5, -0.5, 0.01]  # node 3 pushed through the edge 1-2: the second triangle flips
+    assert "folded over" in check(folded)
+    met = x.copy()
+    met[3] = [1.0, 0.005, 0.0]  # node 3 slid onto node 1
+    assert "nodes met" in check(met)
 
 
 def test_frame_contact_check_sees_two_segments_meet():
