@@ -281,7 +281,15 @@ def make_result(
             {"tension_N": forces["cluster_tension"][P.clu_seg_cluster], "cluster_id": P.clu_seg_cluster.astype(float)},
         )
     if P.link_frame.any():
-        blocks["frame"] = CellBlock("line", real[P.link_ij[P.link_frame]], {"axial_force_N": forces["link_tension"][P.link_frame]})
+        seg = real[P.link_ij[P.link_frame]]
+        blocks["frame"] = CellBlock(
+            "line",
+            seg,
+            {
+                "axial_force_N": forces["link_tension"][P.link_frame],
+                "bending_moment_Nmm": forces["node_moment"][seg].mean(axis=1),
+            },
+        )
     if model.triangles is not None:
         blocks["membrane_surface"] = CellBlock("triangle", model.triangles)
     point_data = {

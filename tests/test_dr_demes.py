@@ -113,7 +113,7 @@ def test_state_writes_vtk_that_pyvista_reads(tmp_path):
     grid = pv.read(path)
     assert grid.n_points == res.x.shape[0]
     assert np.allclose(grid.points, res.x)
-    for name in ("tension_N", "axial_force_N", "block"):
+    for name in ("tension_N", "axial_force_N", "bending_moment_Nmm", "block"):
         assert name in grid.cell_data
     assert "displacement_mm" in grid.point_data and "bending_moment_Nmm" in grid.point_data
     # the membrane is also a surface of triangles
