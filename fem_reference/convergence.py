@@ -82,14 +82,14 @@ class ConvergenceStudy:
 
     def table(self) -> str:
         """Plain-text table: per element and quantity, values per level, order, extrapolation."""
-        head = f"{'quantity':<24}{'elem':>5}" + "".join(f"{'r' + str(k):>12}" for k in self.levels)
+        head = f"{'quantity':<30}{'elem':>5}" + "".join(f"{'r' + str(k):>12}" for k in self.levels)
         lines = [f"convergence at lambda = {self.prestretch:g} ({self.scene.frame.model} frame)",
                  head + f"{'order':>8}{'extrapolated':>15}{'+-':>10}"]
         for el, est in self.estimates.items():
             for name, e in est.items():
                 vals = "".join(f"{v:12.5g}" for v in e.values) + " " * 12 * (len(self.levels) - len(e.values))
                 order = f"{e.order:8.2f}" if e.observed else f"{'(' + format(FORMAL_ORDER, 'g') + ')':>8}"
-                lines.append(f"{name + ' [' + e.unit + ']':<24}{el:>5}{vals}{order}"
+                lines.append(f"{name + ' [' + e.unit + ']':<30}{el:>5}{vals}{order}"
                              f"{e.extrapolated:15.6g}{e.error:10.2g}")
         return "\n".join(lines)
 
