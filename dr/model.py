@@ -254,6 +254,13 @@ class Model:
             nxt = np.roll(c, -1) if closed else c[1:]
             self.add_link(c[: n_edges], nxt[:n_edges], ea, role="frame")
 
+    def scale_membrane_rest_lengths(self, factor: float) -> None:
+        """Multiply the rest lengths of clusters and membrane links by ``factor`` (> 0): how a
+        pre-stretch is changed on a built model (lambda_old / lambda_new)."""
+        f = _positive("rest-length factor", factor)
+        self._clusters = [(c, ea, L0 * f, to) for c, ea, L0, to in self._clusters]
+        self._links = [(i, j, ea, np.where(frame, L0, L0 * f), to, frame) for i, j, ea, L0, to, frame in self._links]
+
     def offset_node(self, i: int, distance: float) -> int:
         """A virtual node at ``distance`` mm along the strip normal from frame node ``i``.
 

@@ -6,6 +6,7 @@ through the measures defined once in :mod:`results.metrics`.
 
 from .atomic import atomic_write, atomic_write_text
 from .state import ENERGY_KEYS, SUMMARY_COLUMNS, Result
+from .store import load_result, save_result
 from .vtk import CellBlock, write_pvd, write_vtu
 
 __all__ = [
@@ -17,4 +18,6 @@ __all__ = [
     "write_pvd",
     "atomic_write",
     "atomic_write_text",
+    "save_result",
+    "load_result",
 ]

@@ -320,7 +320,11 @@ class DRSpec(_Section):
     )
     tolerance: float = spec(1e-6, positive, "", "residual / largest internal force")
     mass_safety: float = spec(2.0, positive, "", "fictitious mass safety factor f (>= 1)")
-    max_iterations: int = spec(3_000_000, integer_at_least(1), "", "time-step limit")
+    max_iterations: int = spec(3_000_000, integer_at_least(1), "", "time-step limit (per pre-stretch step)")
+    prestretch_step: float = spec(
+        0.025, non_negative, "", "largest pre-stretch increment on the way to a state (0: all at once)"
+    )
+    step_tolerance: float = spec(1e-3, positive, "", "tolerance of the intermediate pre-stretch steps")
     check_contact: bool = spec(True, boolean, "", "stop on frame self-contact or membrane folds")
 
 

@@ -84,6 +84,16 @@ def cmd_fem(args: argparse.Namespace) -> int:
     return _run_solver(args, "fem")
 
 
+def cmd_validate(args: argparse.Namespace) -> int:
+    from .validate import validate
+
+    scene = load_scene(args)
+    out = Path(args.out or f"reports/{scene.name}{'_quick' if args.quick else ''}")
+    files = validate(scene, out, quick=args.quick, workers=args.workers, progress=not args.no_progress)
+    print(f"wrote {out / 'index.html'} and {out / 'report.md'} in {files['elapsed_s']:.0f} s")
+    return 0
+
+
 def cmd_bench(args: argparse.Namespace) -> int:
     from . import bench
 
@@ -100,6 +110,14 @@ def build_parser() -> argparse.ArgumentParser:
     _common(p, "out/fem")
     p.add_argument("--refinement", type=int, help="halve the element size this many times")
     p.set_defaults(func=cmd_fem)
+    p = sub.add_parser("validate", help="DR against the FEM reference: shapes, energies, speed, hard cases; writes a report")
+    p.add_argument("scene", nargs="?", default="demes_paper", help="scene .toml or built-in name (default: demes_paper)")
+    p.add_argument("--out", help="report folder (default: reports/<scene>[_quick])")
+    p.add_argument("--quick", action="store_true", help="coarse, short study (under 2 minutes; what the tests run)")
+    p.add_argument("--workers", type=int, default=2, help="parallel solver processes (default 2)")
+    p.add_argument("--set", action="append", metavar="KEY=VALUE", help="change a scene field")
+    p.add_argument("--no-progress", action="store_true", help="no progress bar")
+    p.set_defaults(func=cmd_validate)
     p = sub.add_parser("bench", help="time the DR solver on the elastica and the paper DEMES")
     p.add_argument("--repeats", type=int, default=3, help="runs per case (median reported)")
     p.set_defaults(func=cmd_bench)

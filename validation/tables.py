@@ -12,9 +12,9 @@ from results import SUMMARY_COLUMNS, atomic_write_text
 UNITS = dict(SUMMARY_COLUMNS)
 
 
-def header(name: str) -> str:
+def header(name: str, units: dict[str, str] | None = None) -> str:
     """Column header with its unit: 'bending_angle [deg]'."""
-    unit = UNITS.get(name, "-")
+    unit = {**UNITS, **(units or {})}.get(name, "-")
     return name if unit == "-" else f"{name} [{unit}]"
 
 
@@ -28,12 +28,14 @@ def _fmt(v: Any) -> str:
     return str(v)
 
 
-def write_csv(path: str | Path, rows: Sequence[dict[str, Any]], columns: Sequence[str] | None = None) -> Path:
-    """Write rows (dicts) as CSV, headers carrying units; atomically."""
+def write_csv(path: str | Path, rows: Sequence[dict[str, Any]], columns: Sequence[str] | None = None,
+              units: dict[str, str] | None = None) -> Path:
+    """Write rows (dicts) as CSV, headers carrying units (the state summary's, and ``units``
+    for further columns); atomically."""
     columns = list(columns or (rows[0].keys() if rows else []))
     buf = io.StringIO()
     w = csv.writer(buf)
-    w.writerow([header(c) for c in columns])
+    w.writerow([header(c, units) for c in columns])
     for r in rows:
         w.writerow([_fmt(r.get(c, "")) for c in columns])
     return atomic_write_text(path, buf.getvalue())

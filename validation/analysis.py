@@ -1,0 +1,232 @@
+"""From the runs on disk to the report's numbers: headline, state metrics, speed against error,
+error budget and hard cases. Everything here reads stored states; nothing is solved."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from results import Result
+
+from .compare import Reference, build_reference, state_metrics
+from .plan import Plan, Run
+from .runner import load_states, run_record
+
+THRESHOLDS = (0.01, 0.001)
+"""Shape errors (fraction of the side length) of the 'time to reach' table: 1 % and 0.1 %."""
+
+
+@dataclass
+class Analysis:
+    """All numbers of a validation report (rows are dicts; units in validation.compare)."""
+
+    plan: Plan
+    states: dict[str, dict[float, Result]]
+    records: dict[str, dict[str, Any]]
+    references: dict[float, Reference]
+    dr_limit: Reference | None
+    state_rows: list[dict[str, Any]] = field(default_factory=list)
+    headline: list[dict[str, Any]] = field(default_factory=list)
+    speed_rows: list[dict[str, Any]] = field(default_factory=list)
+    reach: list[dict[str, Any]] = field(default_factory=list)
+    budget: list[dict[str, Any]] = field(default_factory=list)
+    hard: list[dict[str, Any]] = field(default_factory=list)
+    reference_rows: list[dict[str, Any]] = field(default_factory=list)
+
+
+def analyse(plan: Plan, out_dir: Path) -> Analysis:
+    """Read every run of ``plan`` from ``out_dir`` and compute the report's tables."""
+    states = {r.label: load_states(out_dir / "runs" / r.label, r.prestretches) for r in plan.runs}
+    records = {r.label: run_record(out_dir / "runs" / r.label) or {} for r in plan.runs}
+    references = {}
+    for lam in plan.sweep:
+        levels = [states[f"fem_r{k}"].get(lam) for k in plan.reference_levels]
+        if all(s is not None for s in levels):
+            ref = build_reference(plan.reference_levels, levels)
+            if ref is not None:
+                references[lam] = ref
+    # DR's own refined limit: the matched model on meshes doubling in density, tightest tolerance
+    speed_dr = [r for r in plan.by_group("speed") if r.solver == "dr"]
+    tight = min((r.changes["dr.tolerance"] for r in speed_dr), default=None)
+    chain = _doubling_chain(sorted({r.changes["mesh.divisions"] for r in speed_dr}))
+    dr_limit = None
+    if chain:
+        dr_states = [states[_speed_label(n, tight)].get(plan.speed_prestretch) for n in chain]
+        if all(s is not None for s in dr_states):
+            dr_limit = build_reference(tuple(range(len(chain))), dr_states)
+    a = Analysis(plan, states, records, references, dr_limit)
+    _state_rows(a)
+    _headline(a)
+    _speed(a)
+    _budget(a, chain, tight)
+    _hard(a)
+    _reference_rows(a)
+    return a
+
+
+def _speed_label(n: int, tol: float) -> str:
+    return f"speed_dr_n{n}_tol{tol:.0e}"
+
+
+def _doubling_chain(meshes: list[int]) -> list[int]:
+    """The longest chain n, 2n, 4n, ... among the mesh densities."""
+    best: list[int] = []
+    for n in meshes:
+        chain = [n]
+        while chain[-1] * 2 in meshes:
+            chain.append(chain[-1] * 2)
+        best = max(best, chain, key=len)
+    return best if len(best) >= 2 else []
+
+
+def _row(a: Analysis, run: Run, lam: float, res: Result) -> dict[str, Any]:
+    row = {"run": run.label, "group": run.group, "title": run.title}
+    row.update(state_metrics(res, a.references.get(lam)))
+    row["peak_memory"] = a.records.get(run.label, {}).get("peak_memory_mb", float("nan"))
+    return row
+
+
+def _state_rows(a: Analysis) -> None:
+    for run in a.plan.runs:
+        if run.group in ("sweep", "reference", "budget"):
+            for lam, res in sorted(a.states[run.label].items()):
+                a.state_rows.append(_row(a, run, lam, res))
+
+
+def _headline(a: Analysis) -> None:
+    """Per pre-stretch: bending angle of each model and the DR shape errors."""
+    for lam in a.plan.sweep:
+        row: dict[str, Any] = {"prestretch": lam}
+        ref = a.references.get(lam)
+        row["theta_fem"] = ref.values["bending_angle"] if ref else np.nan
+        row["theta_fem_error"] = ref.errors["bending_angle"] if ref else np.nan
+        row["shape_fem_uncertainty"] = ref.shape_uncertainty if ref else np.nan
+        for label, key in (("dr_paper", "paper"), ("dr_matched", "matched")):
+            res = a.states[label].get(lam)
+            if res is None:
+                row[f"theta_{key}"], row[f"status_{key}"] = np.nan, "not reached"
+                continue
+            m = state_metrics(res, ref)
+            row[f"theta_{key}"] = m["bending_angle"]
+            row[f"status_{key}"] = m["status"]
+            row[f"shape_rms_{key}"] = m.get("shape_rms", np.nan)
+            row[f"shape_max_{key}"] = m.get("shape_max", np.nan)
+            row[f"time_{key}"] = m["wall_time"]
+        fem_fine = a.states[f"fem_r{a.plan.reference_levels[-1]}"].get(lam)
+        row["time_fem_finest"] = fem_fine.wall_time if fem_fine else np.nan
+        a.headline.append(row)
+
+
+def _speed(a: Analysis) -> None:
+    """Wall time against shape error at the speed pre-stretch, and the time to reach 1 %, 0.1 %."""
+    lam = a.plan.speed_prestretch
+    ref = a.references.get(lam)
+    for run in a.plan.by_group("speed"):
+        res = a.states[run.label].get(lam)
+        if res is None:
+            continue
+        m = state_metrics(res, ref)
+        a.speed_rows.append({
+            "run": run.label, "method": run.solver, "title": run.title,
+            "mesh": run.changes.get("mesh.divisions", np.nan), "tolerance": run.changes.get("dr.tolerance", np.nan),
+            "refinement": run.refinement if run.solver == "fem" else np.nan,
+            "wall_time": res.wall_time, "iterations": res.iterations, "status": res.status,
+            "shape_rms": m.get("shape_rms", np.nan), "bending_angle_diff": m.get("bending_angle_diff", np.nan),
+            "peak_memory": a.records.get(run.label, {}).get("peak_memory_mb", np.nan),
+        })
+    for threshold in THRESHOLDS:
+        row: dict[str, Any] = {"shape_error": threshold}
+        for method in ("dr", "fem"):
+            ok = [r["wall_time"] for r in a.speed_rows
+                  if r["method"] == method and r["status"] == "converged" and r["shape_rms"] <= threshold]
+            row[f"time_{method}"] = min(ok) if ok else np.nan
+        row["ratio_fem_over_dr"] = row["time_fem"] / row["time_dr"]
+        a.reach.append(row)
+
+
+def _difference(x: Result | None, y: Result | None) -> tuple[float, float]:
+    """Shape RMS (/side) and bending-angle difference between two states of one scene."""
+    if x is None or y is None:
+        return np.nan, np.nan
+    rms, _ = x.shape_error(y)
+    return rms, x.bending_angle - y.bending_angle
+
+
+def _budget(a: Analysis, chain: list[int], tight: float | None) -> None:
+    """Error budget at the speed pre-stretch: discretisation, model form, solver tolerance."""
+    lam = a.plan.speed_prestretch
+    ref = a.references.get(lam)
+
+    def add(kind: str, what: str, rms: float, dtheta: float) -> None:
+        a.budget.append({"kind": kind, "what": what, "shape_rms": rms, "bending_angle_diff": dtheta})
+
+    if ref is not None:
+        for k in a.plan.reference_levels:
+            s = a.states[f"fem_r{k}"].get(lam)
+            if s is not None:
+                add("discretisation", f"FEM refinement {k} vs its extrapolated limit", ref.shape_error(s)[0],
+                    s.bending_angle - ref.values["bending_angle"])
+        add("discretisation", "FEM extrapolated limit: its own error estimate", ref.shape_uncertainty,
+            ref.errors["bending_angle"])
+    if a.dr_limit is not None and tight is not None:
+        for n in chain:
+            s = a.states[_speed_label(n, tight)].get(lam)
+            if s is not None:
+                add("discretisation", f"DR matched, {n} divisions vs its extrapolated limit",
+                    a.dr_limit.shape_error(s)[0], s.bending_angle - a.dr_limit.values["bending_angle"])
+        if ref is not None:
+            add("model form", "DR link net (extrapolated) vs FEM continuum (extrapolated)",
+                metrics_between_references(a.dr_limit, ref),
+                a.dr_limit.values["bending_angle"] - ref.values["bending_angle"])
+    pairs = [
+        ("model form", "clustered net vs link net (DR, strip frame)", "dr_clustered_strip", "dr_matched"),
+        ("model form", "isotropic Table I frame vs strip (DR, link net)", "dr_links_paper", "dr_matched"),
+        ("model form", "isotropic Table I frame vs strip (FEM, r0)", "fem_paper_r0", "fem_r0"),
+        ("model form", "Table I I = 0.0003 vs b t^3/12 = 6.8e-4 mm^4 (DR)", "dr_matched", "dr_matched_bt3"),
+        ("model form", "Table I I = 0.0003 vs b t^3/12 = 6.8e-4 mm^4 (FEM, r0)", "fem_r0", "fem_bt3_r0"),
+        ("model form", "film on the strip's face vs at its centreline (FEM, r0)", "fem_film_r0", "fem_r0"),
+        ("model form", "the paper's DR model vs the FEM reference (finest level)", "dr_paper", f"fem_r{a.plan.reference_levels[-1]}"),
+    ]
+    for kind, what, x, y in pairs:
+        add(kind, what, *_difference(a.states[x].get(lam), a.states[y].get(lam)))
+    if tight is not None:
+        n_mid = chain[len(chain) // 2] if chain else None
+        for run in a.plan.by_group("speed"):
+            if run.solver == "dr" and run.changes["mesh.divisions"] == n_mid and run.changes["dr.tolerance"] != tight:
+                add("solver tolerance", f"DR tol {run.changes['dr.tolerance']:.0e} vs {tight:.0e} ({n_mid} divisions)",
+                    *_difference(a.states[run.label].get(lam), a.states[_speed_label(n_mid, tight)].get(lam)))
+
+
+def metrics_between_references(x: Reference, y: Reference) -> float:
+    """RMS distance of two extrapolated frame curves, / side length."""
+    return float(np.sqrt(np.mean(np.sum((x.curve - y.curve) ** 2, axis=1))) / y.side)
+
+
+def _hard(a: Analysis) -> None:
+    """Each hard case: converged / iterations / time / error, or the error it gave."""
+    for run in a.plan.by_group("hard"):
+        rec = a.records.get(run.label, {})
+        base = {"case": run.label.split("_", 2)[2], "solver": run.solver, "title": run.title}
+        if rec.get("error"):
+            a.hard.append({**base, "prestretch": np.nan, "status": "error", "message": rec["error"]})
+            continue
+        twin = run.label.replace("hard_dr_", "hard_fem_") if run.solver == "dr" else None
+        for lam, res in sorted(a.states[run.label].items()):
+            other = a.states.get(twin, {}).get(lam) if twin else None
+            rms, dtheta = _difference(res, other)
+            a.hard.append({**base, "prestretch": lam, "status": res.status, "converged": res.converged,
+                           "iterations": res.iterations, "wall_time": res.wall_time,
+                           "bending_angle": res.bending_angle if res.scene else np.nan,
+                           "shape_rms_vs_fem": rms, "bending_angle_diff_vs_fem": dtheta,
+                           "peak_memory": rec.get("peak_memory_mb", np.nan), "message": res.message})
+
+
+def _reference_rows(a: Analysis) -> None:
+    """The reference per pre-stretch: values per level, observed order, extrapolation, error."""
+    for lam, ref in sorted(a.references.items()):
+        for q, values in ref.level_values.items():
+            a.reference_rows.append({"prestretch": lam, "quantity": q, **{f"r{k}": v for k, v in zip(ref.levels, values)},
+                                     "order": ref.orders[q], "extrapolated": ref.values[q], "error": ref.errors[q]})

@@ -1,0 +1,216 @@
+"""Figures of the validation report: matplotlib plots and pyvista renders (off-screen)."""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+
+from results import Result, atomic_write  # noqa: E402
+
+from .analysis import THRESHOLDS, Analysis  # noqa: E402
+
+STYLE = {
+    "dr_paper": dict(color="tab:red", marker="s", label="DR, paper's model (clustered, Table I frame)"),
+    "dr_matched": dict(color="tab:blue", marker="o", label="DR, matched (link net, strip)"),
+    "dr_clustered_strip": dict(color="tab:purple", marker="^", label="DR, clustered net, strip"),
+    "reference": dict(color="k", marker="D", label="FEM reference (extrapolated)"),
+}
+
+
+def _save(fig, path: Path) -> Path:
+    def write(tmp: Path) -> None:
+        fig.savefig(tmp, dpi=110, bbox_inches="tight", format="png")
+
+    atomic_write(path, write)
+    plt.close(fig)
+    return path
+
+
+def bending_angle(a: Analysis, path: Path) -> Path:
+    """Bending angle against pre-stretch (the paper's Fig. 2 as a curve)."""
+    fig, ax = plt.subplots(figsize=(6.4, 4.2))
+    for label in ("dr_paper", "dr_matched", "dr_clustered_strip"):
+        pts = sorted((lam, r.bending_angle, r.converged) for lam, r in a.states[label].items())
+        if pts:
+            lam, th, ok = map(np.array, zip(*pts))
+            st = STYLE[label]
+            ax.plot(lam, th, "-", color=st["color"], label=st["label"])
+            ax.plot(lam[ok], th[ok], st["marker"], color=st["color"])
+            ax.plot(lam[~ok], th[~ok], st["marker"], color=st["color"], mfc="none")
+    for k in a.plan.reference_levels:
+        pts = sorted((lam, r.bending_angle) for lam, r in a.states[f"fem_r{k}"].items() if r.converged)
+        if pts:
+            ax.plot(*zip(*pts), ":", color="0.5", lw=1, label=f"FEM refinement {k}" if k == a.plan.reference_levels[-1] else None)
+    refs = sorted(a.references.items())
+    if refs:
+        lam = [l for l, _ in refs]
+        ax.errorbar(lam, [r.values["bending_angle"] for _, r in refs], yerr=[r.errors["bending_angle"] for _, r in refs],
+                    fmt="D-", color="k", ms=4, label=STYLE["reference"]["label"])
+    ax.set_xlabel("pre-stretch ratio [-]")
+    ax.set_ylabel("bending angle [deg]")
+    ax.set_title("Bending angle vs pre-stretch (open markers: stopped states)")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=7)
+    return _save(fig, path)
+
+
+def energy_stroke(a: Analysis, path: Path) -> Path:
+    """Strain energy against stroke, split into membrane and frame (the paper's Fig. 5).
+
+    Stroke is the change of bending angle from the most bent converged state of each model,
+    as a voltage relaxing the membrane would produce it.
+    """
+    fig, axes = plt.subplots(1, 2, figsize=(10, 4), sharey=False)
+    series = {"dr_paper": a.states["dr_paper"], "dr_matched": a.states["dr_matched"],
+              "reference": {lam: r for lam, r in a.states[f"fem_r{a.plan.reference_levels[-1]}"].items()}}
+    for key, states in series.items():
+        ok = sorted((lam, r) for lam, r in states.items() if r.converged)
+        if len(ok) < 2:
+            continue
+        theta = np.array([r.bending_angle for _, r in ok])
+        i_bent = int(np.argmax(np.abs(theta)))
+        stroke = np.abs(theta[i_bent] - theta)
+        e_mem = np.array([r.energy["membrane"] for _, r in ok])
+        e_frame = np.array([r.energy["total"] - r.energy["membrane"] for _, r in ok])
+        st = STYLE[key]
+        label = st["label"] if key != "reference" else f"FEM, refinement {a.plan.reference_levels[-1]}"
+        axes[0].plot(stroke, e_mem + e_frame, st["marker"] + "-", color=st["color"], label=label)
+        axes[1].plot(stroke, e_mem, st["marker"] + "-", color=st["color"], label=f"membrane, {label}")
+        axes[1].plot(stroke, e_frame, st["marker"] + "--", color=st["color"], mfc="none", label=f"frame, {label}")
+    axes[0].set_title("Total strain energy E_DR vs stroke")
+    axes[1].set_title("Energy split: membrane (solid) and frame (dashed)")
+    for ax in axes:
+        ax.set_xlabel("stroke [deg] (from the most bent converged state)")
+        ax.set_ylabel("energy [N mm]")
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=6)
+    return _save(fig, path)
+
+
+def convergence(a: Analysis, path: Path) -> Path:
+    """Mesh convergence: FEM bending angle per level; shape error against element size."""
+    fig, axes = plt.subplots(1, 2, figsize=(10, 4))
+    for lam, ref in sorted(a.references.items()):
+        axes[0].plot(ref.levels, ref.level_values["bending_angle"], "o-", label=f"lambda {lam:g}")
+        axes[0].axhline(ref.values["bending_angle"], color=axes[0].lines[-1].get_color(), ls=":", lw=0.8)
+    axes[0].set_xlabel("FEM refinement level (element size / 2^k)")
+    axes[0].set_ylabel("bending angle [deg] (dotted: extrapolated)")
+    axes[0].grid(alpha=0.3)
+    axes[0].legend(fontsize=6, ncol=2)
+    rows = [r for r in a.budget if r["kind"] == "discretisation" and np.isfinite(r["shape_rms"]) and r["shape_rms"] > 0]
+    fem = [(2.0 ** -int(r["what"].split("refinement ")[1].split()[0]), r["shape_rms"]) for r in rows if r["what"].startswith("FEM refinement")]
+    dr = [(1.0 / int(r["what"].split(", ")[1].split()[0]), r["shape_rms"]) for r in rows if r["what"].startswith("DR matched")]
+    for pts, st, name in ((fem, "kD-", "FEM vs its limit"), (dr, "bo-", "DR matched vs its limit")):
+        if pts:
+            h, e = zip(*pts)
+            h = np.array(h) / max(h)
+            axes[1].loglog(h, e, st, label=name)
+    if fem or dr:
+        h = np.array([0.25, 1.0])
+        axes[1].loglog(h, 0.5 * max(e for _, e in fem + dr) * h**2, "k:", lw=0.8, label="slope 2")
+    axes[1].set_xlabel("relative element size h / h_coarsest")
+    axes[1].set_ylabel("frame-curve RMS error / side")
+    axes[1].set_title(f"Discretisation error at lambda {a.plan.speed_prestretch:g}")
+    axes[1].grid(alpha=0.3, which="both")
+    axes[1].legend(fontsize=7)
+    return _save(fig, path)
+
+
+def pareto(a: Analysis, path: Path) -> Path:
+    """Wall time against shape error (to the FEM reference) for every speed run."""
+    fig, ax = plt.subplots(figsize=(6.4, 4.4))
+    for method, st in (("dr", dict(color="tab:blue", marker="o")), ("fem", dict(color="k", marker="D"))):
+        rows = [r for r in a.speed_rows if r["method"] == method and np.isfinite(r["shape_rms"])]
+        if rows:
+            ax.loglog([r["shape_rms"] for r in rows], [r["wall_time"] for r in rows], st["marker"], color=st["color"],
+                      ls="none", label="DR matched (mesh x tolerance)" if method == "dr" else "FEM (refinement levels)")
+            for r in rows:
+                tag = f"n{int(r['mesh'])}, {r['tolerance']:.0e}" if method == "dr" else f"r{int(r['refinement'])}"
+                ax.annotate(tag, (r["shape_rms"], r["wall_time"]), fontsize=6, xytext=(3, 2), textcoords="offset points")
+    for t in THRESHOLDS:
+        ax.axvline(t, color="0.6", ls="--", lw=0.8)
+    ax.set_xlabel("frame-curve RMS error / side (to the extrapolated FEM reference)")
+    ax.set_ylabel("wall time [s]")
+    ax.set_title(f"Speed against error at lambda {a.plan.speed_prestretch:g}")
+    ax.grid(alpha=0.3, which="both")
+    ax.legend(fontsize=7)
+    return _save(fig, path)
+
+
+def frame_curves(a: Analysis, path: Path) -> Path:
+    """Side view (y, z) of the frame curves of DR and the FEM reference at each pre-stretch."""
+    lams = [lam for lam in a.plan.sweep if lam in a.references]
+    fig, axes = plt.subplots(1, 2, figsize=(10, 4), sharex=True, sharey=True)
+    cmap = plt.get_cmap("viridis")
+    for i, lam in enumerate(lams):
+        c = cmap(i / max(len(lams) - 1, 1))
+        ref = a.references[lam]
+        for ax, label in zip(axes, ("dr_paper", "dr_matched")):
+            ax.plot(np.append(ref.curve[:, 1], ref.curve[0, 1]), np.append(ref.curve[:, 2], ref.curve[0, 2]), "-", color=c, lw=1.5)
+            res = a.states[label].get(lam)
+            if res is not None:
+                cur = res.frame_curve(256)
+                ax.plot(np.append(cur[:, 1], cur[0, 1]), np.append(cur[:, 2], cur[0, 2]), "--", color=c, lw=1)
+    for ax, label in zip(axes, ("dr_paper", "dr_matched")):
+        ax.set_title(f"{STYLE[label]['label']} (dashed) vs FEM (solid)", fontsize=8)
+        ax.set_xlabel("y [mm]")
+        ax.set_aspect("equal")
+        ax.grid(alpha=0.3)
+    axes[0].set_ylabel("z [mm]")
+    return _save(fig, path)
+
+
+def renders(a: Analysis, lam: float, path: Path) -> Path | None:
+    """pyvista renders of DR (matched, paper) and FEM states at ``lam``: top, side, perspective."""
+    os.environ.setdefault("PYVISTA_OFF_SCREEN", "true")
+    import pyvista as pv
+
+    pv.OFF_SCREEN = True
+    fem = a.states[f"fem_r{a.plan.reference_levels[-1]}"].get(lam)
+    shown = [("FEM reference (finest level)", fem), ("DR matched", a.states["dr_matched"].get(lam)),
+             ("DR, paper's model", a.states["dr_paper"].get(lam))]
+    shown = [(t, r) for t, r in shown if r is not None]
+    if not shown:
+        return None
+    views = (("top", "xy"), ("side", "yz"), ("perspective", "iso"))
+    pl = pv.Plotter(off_screen=True, shape=(len(shown), 3), window_size=(1050, 330 * len(shown)))
+    for i, (title, res) in enumerate(shown):
+        surf = _surface(res)
+        for j, (vname, cam) in enumerate(views):
+            pl.subplot(i, j)
+            pl.add_mesh(surf, color="lightsteelblue", show_edges=False, opacity=0.85)
+            frame = res.frame_curve()
+            pl.add_mesh(pv.lines_from_points(np.vstack([frame, frame[:1]])), color="darkred", line_width=4)
+            pl.add_text(f"{title}, {vname}", font_size=8)
+            if cam == "xy":
+                pl.view_xy()
+            elif cam == "yz":
+                pl.view_yz()
+            else:
+                pl.view_isometric()
+    def write(tmp: Path) -> None:
+        pl.screenshot(str(tmp))
+
+    atomic_write(path, write)
+    pl.close()
+    return path
+
+
+def _surface(res: Result):
+    """The membrane as a triangulated surface (Delaunay of the flat reference, mapped)."""
+    import pyvista as pv
+    from scipy.spatial import Delaunay
+
+    xy = res.x0[:, :2]
+    tri = Delaunay(xy).simplices
+    centroid = xy[tri].mean(axis=1)
+    keep = res.scene.outline.contains(centroid) if res.scene is not None else np.ones(len(tri), bool)
+    tri = tri[keep]
+    faces = np.hstack([np.full((tri.shape[0], 1), 3), tri]).ravel()
+    return pv.PolyData(res.x, faces)

@@ -1,0 +1,154 @@
+"""What ``demes validate`` runs: solver sweeps, the speed-against-error study and hard cases.
+
+A run is one solver on one variant of the scene over a list of pre-stretches. The plan lists
+runs only; executing them is :mod:`validation.runner`, comparing them :mod:`validation.compare`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+# the scene variants every comparison is about (dotted scene changes)
+PAPER_DR = {"frame.model": "paper", "dr.membrane_net": "clustered"}  # the paper's model
+MATCHED = {"frame.model": "strip", "dr.membrane_net": "links"}  # DR physics matched to the FEM
+REFERENCE = {"frame.model": "strip"}  # the FEM reference: continuum membrane + strip
+
+
+@dataclass(frozen=True)
+class Run:
+    """One sweep of one solver on one scene variant.
+
+    Attributes
+    ----------
+    label
+        Unique name; the folder of its files under ``runs/``.
+    solver
+        'dr' or 'fem'.
+    changes
+        Scene field changes (dotted names) on top of the validated scene.
+    prestretches
+        Pre-stretch ratios, solved in increasing order (continuation / warm start).
+    refinement
+        FEM refinement level.
+    group
+        'sweep' (the main comparison), 'reference' (FEM levels), 'speed', 'budget', 'hard'.
+    title
+        What the run shows, for tables.
+    cold
+        Solve each pre-stretch from scratch (timings of the speed study) instead of a sweep.
+    """
+
+    label: str
+    solver: str
+    changes: dict[str, Any] = field(default_factory=dict)
+    prestretches: tuple[float, ...] = ()
+    refinement: int = 0
+    group: str = "sweep"
+    title: str = ""
+    cold: bool = False
+
+
+@dataclass(frozen=True)
+class Plan:
+    """All runs of one validation, and the settings the comparisons need."""
+
+    runs: tuple[Run, ...]
+    sweep: tuple[float, ...]  # the pre-stretch levels of the main comparison
+    speed_prestretch: float  # the state of the speed-against-error study
+    reference_levels: tuple[int, ...]  # FEM refinement levels extrapolated to the reference
+
+    def by_group(self, group: str) -> list[Run]:
+        return [r for r in self.runs if r.group == group]
+
+    def get(self, label: str) -> Run:
+        return next(r for r in self.runs if r.label == label)
+
+
+def _levels(lo: float, hi: float, step: float) -> tuple[float, ...]:
+    return tuple(float(v) for v in np.round(np.arange(lo, hi + step / 2, step), 6))
+
+
+def build_plan(quick: bool = False) -> Plan:
+    """The full plan (100-200 % in 10 % steps, three FEM levels), or the quick one for tests.
+
+    The quick plan is the same study on a coarse mesh and three pre-stretch levels, so that
+    every table and figure of the report is produced in under two minutes.
+    """
+    if quick:
+        sweep = (1.0, 1.15, 1.3)
+        coarse = {"mesh.divisions": 8}
+        levels = (0, 1)
+        speed_lam = 1.3
+        dr_meshes, dr_tols = (6, 8, 12), (1e-4, 1e-6)
+        hard_lams = (1.0, 1.3)
+    else:
+        sweep = _levels(1.0, 2.0, 0.1)
+        coarse = {}
+        levels = (0, 1, 2)
+        speed_lam = 1.3
+        dr_meshes, dr_tols = (10, 14, 20, 28, 40), (1e-4, 1e-5, 1e-6)
+        hard_lams = (1.0, 1.3, 1.5)
+    runs: list[Run] = [
+        Run("dr_paper", "dr", {**coarse, **PAPER_DR}, sweep, title="DR as the paper built it: clustered net, isotropic frame (Table I)"),
+        Run("dr_matched", "dr", {**coarse, **MATCHED}, sweep, title="DR matched to the FEM: link net, strip frame"),
+    ]
+    runs += [
+        Run(f"fem_r{k}", "fem", {**coarse, **REFERENCE}, sweep, refinement=k, group="reference",
+            title=f"FEM reference, strip frame, refinement {k}")
+        for k in levels
+    ]
+    # model-form error: one ingredient changed at a time against the matched DR model
+    runs += [
+        Run("dr_clustered_strip", "dr", {**coarse, **PAPER_DR, "frame.model": "strip"}, sweep, group="budget",
+            title="DR clustered net, strip frame (clustering alone)"),
+        Run("dr_links_paper", "dr", {**coarse, **MATCHED, "frame.model": "paper"}, sweep, group="budget",
+            title="DR link net, isotropic frame (frame model alone)"),
+        Run("dr_matched_bt3", "dr", {**coarse, **MATCHED, "frame.I": None}, sweep, group="budget",
+            title="DR matched, weak-axis I = b t^3/12 instead of Table I's 0.0003 mm^4"),
+        Run("fem_paper_r0", "fem", {**coarse, **REFERENCE, "frame.model": "paper"}, sweep, group="budget",
+            title="FEM, isotropic frame (Table I), refinement 0"),
+        Run("fem_bt3_r0", "fem", {**coarse, **REFERENCE, "frame.I": None}, sweep, group="budget",
+            title="FEM, weak-axis I = b t^3/12, refinement 0"),
+        Run("fem_film_r0", "fem", {**coarse, **REFERENCE, "frame.film_offset": True}, sweep, group="budget",
+            title="FEM, film bonded on the strip's top face, refinement 0"),
+    ]
+    # speed against error: DR over mesh density and tolerance, each state from scratch
+    for n in dr_meshes:
+        for tol in dr_tols:
+            runs.append(Run(f"speed_dr_n{n}_tol{tol:.0e}", "dr", {**MATCHED, "mesh.divisions": n, "dr.tolerance": tol},
+                            (speed_lam,), group="speed", title=f"DR matched, {n} divisions, tol {tol:.0e}", cold=True))
+    for k in levels:
+        runs.append(Run(f"speed_fem_r{k}", "fem", {**coarse, **REFERENCE}, (speed_lam,), refinement=k, group="speed",
+                        title=f"FEM, refinement {k}", cold=True))
+    runs += hard_cases(coarse, hard_lams, quick)
+    return Plan(tuple(runs), sweep, speed_lam, levels)
+
+
+def hard_cases(coarse: dict[str, Any], lams: tuple[float, ...], quick: bool) -> list[Run]:
+    """Numerical-stability cases, each run by DR (and the FEM where it has a counterpart)."""
+    cases: list[tuple[str, dict[str, Any], tuple[float, ...], str]] = [
+        ("zero_prestretch", {}, (1.0,), "no pre-stretch: must stay flat with no energy"),
+        ("tiny_prestretch", {}, (1.001,), "pre-stretch 1.001"),
+        ("very_high_prestretch", {}, (2.5, 3.0) if not quick else (2.0,), "pre-stretch beyond the paper's 200 %"),
+        ("stiff_frame", {"frame.E": 260000.0}, lams, "frame 100x stiffer"),
+        ("soft_frame", {"frame.E": 26.0}, lams, "frame 100x softer"),
+        ("coarse_mesh", {"mesh.divisions": 4}, lams, "4 divisions per side"),
+        ("asymmetric", {"perturbation.asymmetry": 2.0}, lams, "antisymmetric tilt of the sides, 2 mm"),
+        ("tiny_perturbation", {"perturbation.amplitude": 1e-4}, lams, "apex lift 1e-4 mm"),
+        ("square_frame", {"frame.outline": "polygon", "frame.vertices": [[-20.0, 0.0], [20.0, 0.0], [20.0, 40.0], [-20.0, 40.0]]},
+         lams, "square frame outline (40 mm sides)"),
+    ]
+    if not quick:
+        cases.append(("fine_mesh", {"mesh.divisions": 56}, (1.3,), "56 divisions per side"))
+    runs = []
+    for name, change, case_lams, title in cases:
+        runs.append(Run(f"hard_dr_{name}", "dr", {**coarse, **MATCHED, **change}, case_lams, group="hard", title=title))
+        if name not in ("fine_mesh",):
+            runs.append(Run(f"hard_fem_{name}", "fem", {**coarse, **REFERENCE, **change}, case_lams, group="hard", title=title))
+    for f in (1.0, 0.5):
+        runs.append(Run(f"hard_dr_mass_safety_{f:g}", "dr", {**coarse, **MATCHED, "dr.mass_safety": f}, lams, group="hard",
+                        title=f"DR mass safety factor f = {f:g} (stable for f >= 1)"))
+    return runs

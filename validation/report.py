@@ -1,0 +1,227 @@
+"""The validation report: report.md, a self-contained index.html, and CSV/JSON of every number.
+
+One document (sections of paragraphs, tables and figures) is rendered twice, as Markdown and
+as HTML with the figures inline, so the two never disagree.
+"""
+
+from __future__ import annotations
+
+import base64
+import html
+import json
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Sequence
+
+import numpy as np
+
+from results import atomic_write_text
+
+from .analysis import THRESHOLDS, Analysis
+from .compare import METRIC_UNITS
+from .tables import write_csv
+
+
+@dataclass
+class Table:
+    columns: Sequence[tuple[str, str, str]]  # (key, title with unit, format spec)
+    rows: Sequence[dict[str, Any]]
+
+
+@dataclass
+class Section:
+    title: str
+    parts: list[Any] = field(default_factory=list)  # str paragraphs, Table, or Path (figure)
+
+
+def _cell(v: Any, spec: str) -> str:
+    if v is None or (isinstance(v, float) and math.isnan(v)):
+        return "-"
+    if isinstance(v, bool):
+        return "yes" if v else "no"
+    if isinstance(v, (int, float, np.floating, np.integer)) and spec:
+        return format(float(v) if spec[-1] in "efg%" else v, spec)
+    return str(v)
+
+
+def to_markdown(sections: Sequence[Section], title: str, base: Path) -> str:
+    out = [f"# {title}", ""]
+    for sec in sections:
+        out += [f"## {sec.title}", ""]
+        for part in sec.parts:
+            if isinstance(part, str):
+                out += [part, ""]
+            elif isinstance(part, Table):
+                out.append("| " + " | ".join(t for _, t, _ in part.columns) + " |")
+                out.append("|" + "---|" * len(part.columns))
+                for r in part.rows:
+                    out.append("| " + " | ".join(_cell(r.get(k), f) for k, _, f in part.columns) + " |")
+                out.append("")
+            elif isinstance(part, Path):
+                out += [f"![{part.stem}]({part.relative_to(base).as_posix()})", ""]
+    return "\n".join(out)
+
+
+def to_html(sections: Sequence[Section], title: str) -> str:
+    css = ("body{font-family:sans-serif;max-width:1100px;margin:2em auto;color:#222}"
+           "table{border-collapse:collapse;font-size:12px;margin:0.5em 0 1.5em}"
+           "td,th{border:1px solid #bbb;padding:2px 6px;text-align:right}th{background:#eee}"
+           "td:first-child,th:first-child{text-align:left}img{max-width:100%}")
+    out = [f"<!DOCTYPE html><html><head><meta charset='utf-8'><title>{html.escape(title)}</title>",
+           f"<style>{css}</style></head><body><h1>{html.escape(title)}</h1>"]
+    for sec in sections:
+        out.append(f"<h2>{html.escape(sec.title)}</h2>")
+        for part in sec.parts:
+            if isinstance(part, str):
+                out.append(f"<p>{html.escape(part)}</p>")
+            elif isinstance(part, Table):
+                out.append("<table><tr>" + "".join(f"<th>{html.escape(t)}</th>" for _, t, _ in part.columns) + "</tr>")
+                for r in part.rows:
+                    out.append("<tr>" + "".join(f"<td>{html.escape(_cell(r.get(k), f))}</td>" for k, _, f in part.columns) + "</tr>")
+                out.append("</table>")
+            elif isinstance(part, Path) and part.exists():
+                data = base64.b64encode(part.read_bytes()).decode()
+                out.append(f"<p><img alt='{html.escape(part.stem)}' src='data:image/png;base64,{data}'></p>")
+    out.append("</body></html>")
+    return "\n".join(out)
+
+
+HEADLINE = (
+    ("prestretch", "lambda [-]", ".2f"),
+    ("theta_fem", "theta FEM [deg]", ".2f"),
+    ("theta_fem_error", "+- [deg]", ".2g"),
+    ("theta_matched", "theta DR matched [deg]", ".2f"),
+    ("shape_rms_matched", "shape RMS DR matched [/side]", ".3g"),
+    ("status_matched", "DR matched", ""),
+    ("theta_paper", "theta DR paper [deg]", ".2f"),
+    ("shape_rms_paper", "shape RMS DR paper [/side]", ".3g"),
+    ("status_paper", "DR paper", ""),
+    ("time_matched", "DR matched [s]", ".2f"),
+    ("time_fem_finest", "FEM finest [s]", ".2f"),
+)
+SPEED = (
+    ("title", "run", ""),
+    ("status", "status", ""),
+    ("wall_time", "time [s]", ".3g"),
+    ("iterations", "iterations", "d"),
+    ("shape_rms", "shape RMS [/side]", ".3g"),
+    ("bending_angle_diff", "d theta [deg]", ".3g"),
+    ("peak_memory", "peak memory [MB]", ".0f"),
+)
+REACH = (
+    ("shape_error", "shape error [/side]", ".2%"),
+    ("time_dr", "DR [s]", ".3g"),
+    ("time_fem", "FEM [s]", ".3g"),
+    ("ratio_fem_over_dr", "FEM / DR time", ".3g"),
+)
+BUDGET = (
+    ("kind", "kind", ""),
+    ("what", "what", ""),
+    ("shape_rms", "shape RMS [/side]", ".3g"),
+    ("bending_angle_diff", "d theta [deg]", ".3g"),
+)
+HARD = (
+    ("case", "case", ""),
+    ("solver", "solver", ""),
+    ("prestretch", "lambda", ".3f"),
+    ("status", "status", ""),
+    ("iterations", "iterations", "d"),
+    ("wall_time", "time [s]", ".3g"),
+    ("bending_angle", "theta [deg]", ".2f"),
+    ("shape_rms_vs_fem", "DR vs FEM shape RMS [/side]", ".3g"),
+    ("message", "message", ""),
+)
+
+
+def _findings(a: Analysis) -> list[str]:
+    """Sentences stating the measured outcome (numbers only, no judgement beyond them)."""
+    out = []
+    rows = [r for r in a.headline if np.isfinite(r.get("theta_fem", np.nan))]
+    if rows:
+        last = rows[-1]
+        out.append(
+            f"FEM reference (strip frame, extrapolated from refinement levels {list(a.plan.reference_levels)}): "
+            + ", ".join(f"{r['prestretch']:.2f}: {r['theta_fem']:.1f} +- {r['theta_fem_error']:.2g} deg" for r in rows) + "."
+        )
+        m = [r for r in rows if np.isfinite(r.get("shape_rms_matched", np.nan))]
+        if m:
+            out.append("DR matched (link net, strip) frame-curve RMS error / side: "
+                       + ", ".join(f"{r['prestretch']:.2f}: {r['shape_rms_matched']:.3g}" for r in m) + ".")
+        p = [r for r in rows if np.isfinite(r.get("shape_rms_paper", np.nan))]
+        if p:
+            out.append("DR as the paper built it (clustered net, Table I isotropic frame): "
+                       + ", ".join(f"{r['prestretch']:.2f}: {r['status_paper']}" for r in rows) + ".")
+    for r in a.reach:
+        if np.isfinite(r["ratio_fem_over_dr"]):
+            out.append(f"Time to reach {r['shape_error']:.1%} shape error: DR {r['time_dr']:.3g} s, FEM {r['time_fem']:.3g} s, "
+                       f"ratio FEM/DR {r['ratio_fem_over_dr']:.3g}.")
+        else:
+            which = [m.upper() for m in ("dr", "fem") if not np.isfinite(r[f"time_{m}"])]
+            out.append(f"{r['shape_error']:.1%} shape error is not reached by {' and '.join(which)} in this study "
+                       "(for DR the model-form error of the net against the continuum is part of its error).")
+    return out
+
+
+def write_report(a: Analysis, out_dir: Path, figures: dict[str, Path | None], title: str) -> dict[str, Path]:
+    """Write report.md, index.html and the CSV/JSON tables; returns their paths."""
+    units = {**METRIC_UNITS, "shape_error": "-", "time_dr": "s", "time_fem": "s", "wall_time": "s",
+             "theta_fem": "deg", "theta_fem_error": "deg", "theta_matched": "deg", "theta_paper": "deg",
+             "bending_angle_diff_vs_fem": "deg", "shape_rms_vs_fem": "-", "time_matched": "s", "time_paper": "s",
+             "time_fem_finest": "s"}
+    files = {
+        "states": write_csv(out_dir / "states.csv", a.state_rows, units=units),
+        "headline": write_csv(out_dir / "headline.csv", a.headline, units=units),
+        "speed": write_csv(out_dir / "speed.csv", a.speed_rows, units=units),
+        "reach": write_csv(out_dir / "time_to_error.csv", a.reach, units=units),
+        "budget": write_csv(out_dir / "error_budget.csv", a.budget, units=units),
+        "hard": write_csv(out_dir / "hard_cases.csv", a.hard, units=units),
+        "reference": write_csv(out_dir / "reference.csv", a.reference_rows, units=units),
+    }
+    everything = {"headline": a.headline, "speed": a.speed_rows, "time_to_error": a.reach, "error_budget": a.budget,
+                  "hard_cases": a.hard, "reference": a.reference_rows, "states": a.state_rows,
+                  "runs": a.records, "units": units}
+    files["json"] = atomic_write_text(out_dir / "metrics.json", json.dumps(_plain(everything), indent=1))
+    lam = a.plan.speed_prestretch
+    sections = [
+        Section("Findings", _findings(a)),
+        Section("Bending angle and shape against the FEM reference", [
+            "Shape error: RMS and max distance between frame curves at equal reference arc length, divided by the side "
+            "length, against the FEM state extrapolated from its refinement levels (Richardson; error estimates from the "
+            "grid convergence index). Statuses other than 'converged' are the named stops of the solver.",
+            Table(HEADLINE, a.headline), figures.get("bending_angle"), figures.get("frame_curves")]),
+        Section("Energy against stroke", ["Strain energy (E_DR = sum N eps L / 2 + M^2 L / 2 EI) split into membrane and "
+                                          "frame, against the stroke from the most bent state.", figures.get("energy_stroke")]),
+        Section(f"Speed against error (lambda = {lam:g})", [
+            "Each state solved from scratch; DR over mesh density and tolerance, the FEM over refinement levels "
+            "(continuation from the flat state included in its time).",
+            Table(SPEED, a.speed_rows), Table(REACH, a.reach), figures.get("pareto")]),
+        Section(f"Error budget (lambda = {lam:g})", [
+            "Discretisation error of each model against its own refined limit, model-form differences (one ingredient "
+            "at a time), and the solver tolerance.", Table(BUDGET, a.budget), figures.get("convergence")]),
+        Section("Hard cases", [Table(HARD, a.hard)]),
+        Section("Shapes", [f"DR and FEM states rendered top, side and perspective (the paper's Fig. 3 views); "
+                           f"ParaView series: runs/<run>/<run>.pvd.", figures.get("renders")]),
+    ]
+    for sec in sections:
+        sec.parts = [p for p in sec.parts if p is not None]
+    files["md"] = atomic_write_text(out_dir / "report.md", to_markdown(sections, title, out_dir))
+    files["html"] = atomic_write_text(out_dir / "index.html", to_html(sections, title))
+    return files
+
+
+def _plain(obj: Any) -> Any:
+    if isinstance(obj, dict):
+        return {str(k): _plain(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [_plain(v) for v in obj]
+    if isinstance(obj, (np.floating, float)):
+        return None if not np.isfinite(obj) else float(obj)
+    if isinstance(obj, (np.integer,)):
+        return int(obj)
+    if isinstance(obj, np.bool_):
+        return bool(obj)
+    return obj
+
+
+__all__ = ["write_report", "THRESHOLDS"]
