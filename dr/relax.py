@@ -45,9 +45,10 @@ def relax(
     ----------
     tol
         Convergence when the largest nodal residual and momentum |M v|/dt at free nodes are
-        below ``tol`` times the largest element force (N/N), or times the largest load or
-        ``force_scale`` if larger. Below about 1e-8 the momentum of a stiff frame's axial
-        masses reaches the round-off of the positions and DR stalls.
+        below ``tol`` times the largest element force (N/N), or times the largest load,
+        ``force_scale`` or ten times the round-off of the stiffest link's force over tol if
+        larger. Below about 1e-8 the momentum of a stiff frame's axial masses reaches the
+        round-off of the positions and DR stalls.
     mass_safety
         Safety factor f of the fictitious masses M = f dt^2/2 K (K a stiffness bound; f >= 1
         is stable, 2 is safe).
@@ -115,8 +116,12 @@ def relax(
     loads = model.loads
     R = np.zeros((n, 3))
     _update_masses(X, P, G, S, D, loads, free, R, mass_safety, M, Minv, tensor)
-    force_floor = max(float(np.max(np.linalg.norm(loads, axis=1))), float(force_scale), 1e-300)
     runaway = max(float(np.linalg.norm(np.ptp(X[:n], axis=0))), 1e-9)
+    # a residual below the round-off of the stiffest link's force cannot be resolved
+    # (positions carry ~2 eps |x|): the force scale is at least 10x that noise over tol
+    k_max = float(np.max(P.link_EA / P.link_L0)) if P.link_EA.size else 0.0
+    noise = k_max * 2.0 * np.finfo(float).eps * float(np.abs(X[:n]).max())
+    force_floor = max(float(np.max(np.linalg.norm(loads, axis=1))), float(force_scale), 10.0 * noise / tol, 1e-300)
     watched = np.zeros(n, dtype=bool)
     segments, closed, distance = np.zeros((0, 2), np.int64), False, 0.0
     if contact is not None:

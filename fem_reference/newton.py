@@ -111,9 +111,15 @@ def lowest_mode(K: sp.spmatrix, M: sp.spmatrix) -> tuple[float, np.ndarray]:
     if mu < -sigma:  # refactor at the shift actually used
         f = factor(K - sigma * M)
     op = sla.LinearOperator(K.shape, matvec=f.solve, dtype=float)
-    rng = np.random.default_rng(0)
-    w, v = sla.eigsh(K, k=1, M=M, sigma=sigma, which="LM", OPinv=op, v0=rng.standard_normal(K.shape[0]))
-    return float(w[0]), v[:, 0]
+    v0 = np.random.default_rng(0).standard_normal(K.shape[0])
+    # a clustered low spectrum (a slack film) can stall ARPACK: one retry with a larger subspace
+    for ncv, maxiter in ((None, None), (min(K.shape[0], 40), 20 * K.shape[0])):
+        try:
+            w, v = sla.eigsh(K, k=1, M=M, sigma=sigma, which="LM", OPinv=op, v0=v0, ncv=ncv, maxiter=maxiter)
+            return float(w[0]), v[:, 0]
+        except sla.ArpackNoConvergence as exc:
+            failure = exc
+    raise NotFactorizable(f"the lowest eigenvalue of the tangent did not converge ({failure})")
 
 
 # ----------------------------------------------------------------------------- Newton

@@ -32,10 +32,13 @@ def bending_angle(apex: np.ndarray, base_mid: np.ndarray) -> float:
 
     The symmetry plane is x = 0 (the base lies on the x axis, the flat frame in z = 0, the apex
     at y > 0), so the angle is atan2(dz, dy): 0 when flat, 90 when the apex is straight above
-    the base, above 90 once it curls past vertical.
+    the base, above 90 once it curls past vertical. A DEMES curls up past vertical (and a
+    curled frame past 180 deg, apex below the base plane behind it) or dips a little down,
+    so angles are given in [-90, 270) deg rather than wrapping at 180.
     """
     d = np.asarray(apex, float) - np.asarray(base_mid, float)
-    return float(np.degrees(np.arctan2(d[2], d[1])))
+    theta = float(np.degrees(np.arctan2(d[2], d[1])))
+    return theta + 360.0 if theta < -90.0 else theta
 
 
 def shape_error(

@@ -25,7 +25,7 @@ def test_demes_solve_writes_table_csv_and_vtk_series(tmp_path, capsys):
     scene = scenes.paper_demes(1.0, "strip", **{"mesh.divisions": 10})
     direct = list(dr.sweep(scene, [1.0, 1.2]))
     for row, res in zip(rows, direct):
-        assert float(row["bending_angle [deg]"]) == np.float64(f"{res.bending_angle:.6g}")
+        assert float(row["bending_angle [deg]"]) == res.bending_angle
     series = pv.get_reader(out / "dr_strip.pvd")
     assert series.time_values == [1.0, 1.2]
     series.set_active_time_value(1.2)

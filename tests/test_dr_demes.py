@@ -90,7 +90,7 @@ def test_collapsing_paper_frame_stops_at_self_contact():
 def test_clustered_net_folding_over_is_named():
     """The collapsing paper frame drags the clustered net into a state where its sliding nodes
     have passed each other: an equilibrium of cables over pulleys, not of a membrane."""
-    res = dr.solve(scenes.paper_demes(1.2, "paper", **COARSE))
+    res = dr.solve(scenes.paper_demes(1.3, "paper", **COARSE))
     assert res.status == "membrane_fold" and not res.converged
     assert "membrane folded over" in res.message
 

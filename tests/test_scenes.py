@@ -70,3 +70,12 @@ def test_landmarks_of_the_taped_base():
     assert np.allclose(t1[:2], [-0.5, np.sqrt(3) / 2]) and np.allclose(t2[:2], [-0.5, -np.sqrt(3) / 2])
     pinned = s.updated(**{"supports.base": "pinned"})
     assert pinned.clamps() == [] and pinned.base_region()[0] < s_right
+
+
+def test_bending_angle_runs_past_180_degrees_without_wrapping():
+    from results.metrics import bending_angle
+
+    base = np.zeros(3)
+    for theta in (-30.0, 0.0, 45.0, 90.0, 135.0, 179.0, 181.0, 200.0, 260.0):
+        t = np.radians(theta)
+        assert bending_angle(np.array([0.0, np.cos(t), np.sin(t)]) * 30.0, base) == pytest.approx(theta)

@@ -43,11 +43,16 @@ def analyse(plan: Plan, out_dir: Path) -> Analysis:
     records = {r.label: run_record(out_dir / "runs" / r.label) or {} for r in plan.runs}
     references = {}
     for lam in plan.sweep:
-        levels = [states[f"fem_r{k}"].get(lam) for k in plan.reference_levels]
-        if all(s is not None for s in levels):
-            ref = build_reference(plan.reference_levels, levels)
-            if ref is not None:
-                references[lam] = ref
+        # the consecutive levels from the coarsest that have this state
+        levels: list[Result] = []
+        for k in plan.reference_levels:
+            s = states[f"fem_r{k}"].get(lam)
+            if s is None:
+                break
+            levels.append(s)
+        ref = build_reference(plan.reference_levels, levels)
+        if ref is not None:
+            references[lam] = ref
     # DR's own refined limit: the matched model on meshes doubling in density, tightest tolerance
     speed_dr = [r for r in plan.by_group("speed") if r.solver == "dr"]
     tight = min((r.changes["dr.tolerance"] for r in speed_dr), default=None)
@@ -115,7 +120,8 @@ def _headline(a: Analysis) -> None:
             row[f"shape_rms_{key}"] = m.get("shape_rms", np.nan)
             row[f"shape_max_{key}"] = m.get("shape_max", np.nan)
             row[f"time_{key}"] = m["wall_time"]
-        fem_fine = a.states[f"fem_r{a.plan.reference_levels[-1]}"].get(lam)
+        row["reference_levels"] = len(ref.levels) if ref else 0
+        fem_fine = a.states[f"fem_r{ref.levels[-1]}"].get(lam) if ref else None
         row["time_fem_finest"] = fem_fine.wall_time if fem_fine else np.nan
         a.headline.append(row)
 

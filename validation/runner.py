@@ -29,9 +29,19 @@ def state_path(run_dir: Path, lam: float) -> Path:
     return run_dir / f"{lam:.4f}.npz"
 
 
-def load_states(run_dir: Path, lams: tuple[float, ...]) -> dict[float, Result]:
-    """The states of a run that are on disk, by pre-stretch."""
-    return {lam: load_result(state_path(run_dir, lam)) for lam in lams if state_path(run_dir, lam).exists()}
+def load_states(run_dir: Path, requested: tuple[float, ...]) -> dict[float, Result]:
+    """The states of a run that are on disk, keyed by the requested pre-stretch they solve.
+
+    A path that stopped early (contact, no convergence) left its last state at the pre-stretch
+    it reached, which is none of the requested ones; it is loaded too, keyed by that value, so
+    that the report shows where and why the run stopped.
+    """
+    states: dict[float, Result] = {}
+    for path in sorted(run_dir.glob("*.npz")):
+        res = load_result(path)
+        key = next((lam for lam in requested if abs(lam - res.prestretch) < 1e-9), res.prestretch)
+        states[key] = res
+    return states
 
 
 def run_record(run_dir: Path) -> dict[str, Any] | None:
@@ -85,7 +95,13 @@ def execute(run: Run, scene_data: dict[str, Any], out_dir: str) -> dict[str, Any
     os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
     run_dir = Path(out_dir) / "runs" / run.label
     run_dir.mkdir(parents=True, exist_ok=True)
-    record: dict[str, Any] = {"run": asdict(run), "states": [], "error": None}
+    record: dict[str, Any] = {"run": asdict(run), "states": [], "error": None, "complete": False}
+    previous = run_record(run_dir)
+    if previous is not None and previous["run"] != json.loads(json.dumps(asdict(run))):
+        # the plan changed: the states on disk belong to another run
+        for stale in [*run_dir.glob("*.npz"), *run_dir.glob("*.vtu"), *run_dir.glob("*.pvd")]:
+            stale.unlink()
+    atomic_write_text(run_dir / "run.json", json.dumps(record, indent=1))
     measured = _reset_peak_memory()
     t0 = time.perf_counter()
     try:

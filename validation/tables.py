@@ -4,8 +4,11 @@ from __future__ import annotations
 
 import csv
 import io
+import math
 from pathlib import Path
 from typing import Any, Sequence
+
+import numpy as np
 
 from results import SUMMARY_COLUMNS, atomic_write_text
 
@@ -23,8 +26,8 @@ def _fmt(v: Any) -> str:
         return "yes" if v else "no"
     if isinstance(v, int):
         return str(v)
-    if isinstance(v, float):
-        return f"{v:.6g}"
+    if isinstance(v, (float, np.floating)):
+        return repr(float(v))  # every digit: the CSV is data, the tables round for reading
     return str(v)
 
 
@@ -41,21 +44,21 @@ def write_csv(path: str | Path, rows: Sequence[dict[str, Any]], columns: Sequenc
     return atomic_write_text(path, buf.getvalue())
 
 
+def format_cell(v: Any, spec: str = "") -> str:
+    """A value for a human-readable table: '-' for missing or NaN, yes/no for booleans."""
+    if v is None or (isinstance(v, float) and math.isnan(v)):
+        return "-"
+    if isinstance(v, (bool, np.bool_)):
+        return "yes" if v else "no"
+    if isinstance(v, (int, float, np.integer, np.floating)) and spec:
+        return format(float(v) if spec[-1] in "efg%" else int(v), spec)
+    return str(v)
+
+
 def format_table(rows: Sequence[dict[str, Any]], columns: Sequence[tuple[str, str, str]]) -> str:
     """Aligned text table. ``columns``: (key, title, format spec) triples."""
     head = [title for _, title, _ in columns]
-    body = []
-    for r in rows:
-        line = []
-        for key, _, spec in columns:
-            v = r.get(key, "")
-            if isinstance(v, bool):
-                line.append("yes" if v else "no")
-            elif isinstance(v, (int, float)) and spec:
-                line.append(format(v, spec))
-            else:
-                line.append(str(v))
-        body.append(line)
+    body = [[format_cell(r.get(key, ""), spec) for key, _, spec in columns] for r in rows]
     widths = [max(len(h), *(len(b[i]) for b in body)) if body else len(h) for i, h in enumerate(head)]
     out = ["  ".join(h.rjust(w) for h, w in zip(head, widths))]
     out += ["  ".join(c.rjust(w) for c, w in zip(b, widths)) for b in body]
