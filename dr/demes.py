@@ -200,19 +200,20 @@ def solve(scene: Scene, prestretch: float | None = None, x_start: np.ndarray | N
         wall += res.wall_time
         history.append(res.residual_history + np.array([[iterations - res.iterations, 0.0]]) if res.residual_history.size else res.residual_history)
         if not res.converged:
-            if not last:
-                res.message = f"stopped on the way at lambda = {step_lam:.3f}: {res.message}"
             break
         x_start = res.x
     res.iterations, res.wall_time = iterations, wall
     res.residual_history = np.vstack([h for h in history if h.size]) if any(h.size for h in history) else res.residual_history
-    res.scene = scene if lam == scene.prestretch else scene.updated(prestretch=lam)
-    res.prestretch = lam
+    # a path that stopped on the way is reported where it stopped, not where it was headed
+    res.scene = scene if current == scene.prestretch else scene.updated(prestretch=current)
+    res.prestretch = current
     res.frame_nodes = np.arange(dm.net.n_frame)
     res.frame_s = dm.net.frame_s
-    res.message = f"lambda = {lam:.3f}: {res.message}"
+    res.message = f"lambda = {current:.3f}: {res.message}"
     if len(path) > 1:
         res.message += f" (step {path.index(current) + 1} of {len(path)} pre-stretch steps; {iterations} iterations in all)"
+    if current < lam:
+        res.message += f"; the requested lambda = {lam:.3f} was not reached"
     res.info.update(
         n_nodes=dm.model.n,
         n_frame_nodes=dm.net.n_frame,
@@ -237,18 +238,20 @@ def _ramp(start: float, stop: float, step: float) -> list[float]:
     if step <= 0 or stop <= start:
         return [stop]
     n = int(np.ceil((stop - start) / step - 1e-9))
-    return list(start + (stop - start) * np.arange(1, n + 1) / n)
+    # the last level is ``stop`` itself, bit for bit: results are keyed by it
+    return [float(start + (stop - start) * k / n) for k in range(1, n)] + [float(stop)]
 
 
 def sweep(scene: Scene, prestretches: Sequence[float], progress: bool = False,
           start: Result | None = None) -> Iterator[Result]:
-    """States at increasing pre-stretch, each reached from the last converged one.
+    """States at increasing pre-stretch, each reached from the previous one.
 
     A flat state carries no imperfection, so when the last state is flatter than the scene's
-    lift, the lift is put back on top of it. A state that stops (contact, divergence, no
-    convergence) is yielded as it is, and the next one starts again from the last converged
-    state. ``start``, a converged state of the same scene (e.g. the last one an interrupted
-    sweep finished), is where the sweep continues from.
+    lift, the lift is put back on top of it. A state that stops (contact, fold, divergence, no
+    convergence) is yielded at the pre-stretch it reached, with its status, and nothing after
+    it: the path cannot go on from there (as the FEM's continuation). ``start``, a converged
+    state of the same scene (e.g. the last one an interrupted sweep finished), is where the
+    sweep continues from.
     """
     x_prev, flat, lam_prev = None, False, 1.0
     if start is not None and start.converged:
@@ -256,7 +259,8 @@ def sweep(scene: Scene, prestretches: Sequence[float], progress: bool = False,
         flat = np.abs(start.frame_curve()[:, 2]).max() < abs(scene.perturbation.amplitude)
     for lam in sorted(float(v) for v in prestretches):
         res = solve(scene, lam, x_start=x_prev, relift=flat, progress=progress, from_prestretch=lam_prev)
-        if res.converged:
-            x_prev, lam_prev = res.x, lam
-            flat = np.abs(res.frame_curve()[:, 2]).max() < abs(scene.perturbation.amplitude)
         yield res
+        if not res.converged:
+            return
+        x_prev, lam_prev = res.x, lam
+        flat = np.abs(res.frame_curve()[:, 2]).max() < abs(scene.perturbation.amplitude)

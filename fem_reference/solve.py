@@ -89,8 +89,10 @@ def _neutral_tolerance(scene: Scene) -> float:
 class Continuation:
     """Follows the stable equilibrium path of a :class:`DemesProblem` in pre-stretch."""
 
-    def __init__(self, problem: DemesProblem):
+    def __init__(self, problem: DemesProblem, deadline: float | None = None):
+        """``deadline``: a ``time.perf_counter()`` value after which the path stops."""
         self.problem = problem
+        self.deadline = deadline
         self.scene = problem.scene
         self.lam = 1.0
         self.y = problem.reference()
@@ -215,6 +217,11 @@ class Continuation:
             if nr.converged and self.contact(nr.y) is None:
                 self.previous, self.lam, self.y = (self.lam, self.y), target, nr.y
         while self.lam < target - 1e-12:
+            if self.deadline is not None and time.perf_counter() > self.deadline:
+                self.problem.lam = self.lam
+                return Outcome(self.y, self.lam, "time_limit",
+                               f"the time limit (fem.time_limit = {self.scene.fem.time_limit:g} s) was spent "
+                               f"at lambda = {self.lam:.4f} with a step of {self.step:.2g}", records)
             lam = min(self.lam + self.step, target)
             if target - lam < 0.25 * self.step:  # do not leave a sliver before the target
                 lam = target
@@ -297,7 +304,7 @@ def make_result(problem: DemesProblem, out: Outcome, requested: float, wall: flo
     status, converged = out.status, out.converged
     what = {"converged": "converged", "self_contact": "stopped at self-contact",
             "unstable": "found no stable state", "max_iterations": "did not converge",
-            "diverged": "diverged"}[status]
+            "diverged": "diverged", "time_limit": "stopped at the time limit"}[status]
     message = (f"lambda = {lam:.3f}: {what}; relative residual {residual:.1e} after {iterations} "
                f"Newton iterations in {len(out.records)} continuation steps")
     if out.detail:
@@ -391,11 +398,13 @@ def sweep(scene: Scene, prestretches: Sequence[float], refinement: int | None = 
     lams = _check_prestretches(prestretches)
     level = _refinement(scene, refinement)
     problem = DemesProblem(scene, level, scene.fem.element)
-    path = Continuation(problem)
+    limit = scene.fem.time_limit
+    deadline = time.perf_counter() + limit if limit > 0 else None
+    path = Continuation(problem, deadline)
     # mesh sequencing: the path is followed on the coarsest mesh, whose states start Newton on
     # the fine one (slender frames make Newton's region of fast convergence shrink with h)
     coarse = DemesProblem(scene, 0, scene.fem.element) if level > 0 else None
-    guide = Continuation(coarse) if coarse is not None else None
+    guide = Continuation(coarse, deadline) if coarse is not None else None
     steps = 0
     for lam in lams:
         t0 = time.perf_counter()

@@ -31,6 +31,7 @@ SUMMARY_COLUMNS = (
     ("wall_time", "s"),
     ("converged", "-"),
     ("status", "-"),
+    ("message", "-"),
 )
 """Columns of a state's one-line summary (CSV tables), with units."""
 
@@ -158,6 +159,7 @@ class Result:
             wall_time=self.wall_time,
             converged=self.converged,
             status=self.status,
+            message=self.message,
         )
         return row
 

@@ -335,6 +335,9 @@ class FEMSpec(_Section):
     _prefix = "fem"
     element: str = spec("P1", one_of("P1", "P2"), "", "membrane element")
     refinement: int = spec(0, integer_at_least(0), "", "times the element size is halved")
+    time_limit: float = spec(
+        0.0, non_negative, "s", "wall-time budget of one sweep (0: none); spent, the path stops with status 'time_limit'"
+    )
 
 
 @dataclass(frozen=True)

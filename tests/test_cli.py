@@ -39,3 +39,17 @@ def test_demes_reports_a_bad_scene_field_without_a_traceback(tmp_path, capsys):
     assert "frame.E" in err and "Traceback" not in err
     code = main(["solve", "--prestretch", "0.8", "--out", str(tmp_path), "--no-progress"])
     assert code == 1 and "below 1" in capsys.readouterr().err
+
+
+def test_demes_solve_names_the_stop_and_the_levels_it_did_not_reach(tmp_path, capsys):
+    out = tmp_path / "run"
+    code = main(["solve", "--prestretch", "1.1", "1.3", "1.5", "--set", "mesh.divisions=12",
+                 "--frame-model", "paper", "--out", str(out), "--no-progress"])
+    assert code == 2  # not every state converged
+    printed = capsys.readouterr().out
+    assert "membrane_fold: lambda = " in printed
+    missed = [line for line in printed.splitlines() if "not reached (the path stopped before them): " in line]
+    assert len(missed) == 1 and missed[0].endswith(" 1.5")
+    with open(out / "dr_paper.csv") as f:
+        rows = list(csv.DictReader(f))
+    assert rows[-1]["status"] == "membrane_fold" and "membrane folded over" in rows[-1]["message"]

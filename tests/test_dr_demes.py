@@ -131,6 +131,20 @@ def test_state_writes_vtk_that_pyvista_reads(tmp_path):
     assert series.time_values == [1.2]
 
 
+def test_a_sweep_ends_with_the_state_that_stopped_it_where_it_stopped():
+    """The paper frame's net folds between 1.1 and 1.3: the stop is reported at the pre-stretch
+    the path reached (not the one it was headed for), and nothing is solved past it."""
+    states = list(dr.sweep(scenes.paper_demes(1.0, "paper", **COARSE), [1.1, 1.3, 1.5, 1.7]))
+    *before, stop = states
+    assert before and all(s.converged for s in before)
+    assert stop.status == "membrane_fold"
+    assert before[-1].prestretch < stop.prestretch <= 1.3
+    assert stop.prestretch == stop.info["reached_prestretch"]
+    assert f"lambda = {stop.prestretch:.3f}:" in stop.message
+    if stop.prestretch < 1.3:
+        assert "the requested lambda = 1.300 was not reached" in stop.message
+
+
 def test_sweep_warm_starts_from_the_previous_state():
     scene = scenes.paper_demes(1.0, "strip", **COARSE)
     states = list(dr.sweep(scene, [1.1, 1.2]))

@@ -197,3 +197,11 @@ def test_neo_hookean_compression_is_measured():
     lin.lam = 1.3
     assert slack_fraction(lin, squeezed) == pytest.approx(1.0)
     assert slack_fraction(lin, flat) == 0.0
+
+
+def test_a_spent_time_limit_stops_the_path_with_a_named_status():
+    scene = scenes.paper_demes(1.3, "strip", **{"mesh.divisions": 8, "fem.time_limit": 1e-6})
+    res = fem_reference.solve(scene)
+    assert res.status == "time_limit" and not res.converged
+    assert res.prestretch == 1.0  # the last state the path reached: the flat one
+    assert "fem.time_limit" in res.message and "the requested lambda = 1.300 was not reached" in res.message

@@ -228,6 +228,11 @@ def _hard(a: Analysis) -> None:
                            "bending_angle": res.bending_angle if res.scene else np.nan,
                            "shape_rms_vs_fem": rms, "bending_angle_diff_vs_fem": dtheta,
                            "peak_memory": rec.get("peak_memory_mb", np.nan), "message": res.message})
+        reached = max(a.states[run.label], default=0.0)
+        for lam in run.prestretches:
+            if lam > reached + 1e-9:
+                a.hard.append({**base, "prestretch": lam, "status": "not reached",
+                               "message": "the path stopped before this pre-stretch"})
 
 
 def _reference_rows(a: Analysis) -> None:

@@ -11,7 +11,7 @@ from typing import Any, Sequence
 import scenes
 from results import atomic_write_text
 
-from .sweep import print_table, run_sweep
+from .sweep import print_table, run_sweep, stop_notes
 
 
 def _parse_value(text: str) -> Any:
@@ -70,7 +70,7 @@ def _run_solver(args: argparse.Namespace, solver: str) -> int:
         label = f"fem_{scene.frame.model}_r{refinement}"
     results = run_sweep(states, lams, out, label, progress=not args.no_progress)
     title = f"{scene.name}: {solver.upper()}, frame model '{scene.frame.model}'"
-    text = print_table(results, title)
+    text = print_table(results, title) + stop_notes(results, lams)
     atomic_write_text(out / f"{label}.txt", text + "\n")
     print(f"wrote {out / (label + '.csv')}, {out / (label + '.pvd')} and {len(results)} .vtu states")
     return 0 if all(r.converged for r in results) else 2
