@@ -96,3 +96,12 @@ def test_interrupted_validation_redoes_only_what_is_missing(report):
     for name, stamp in kept_stamps.items():  # finished states were not solved again
         assert (victim / name).stat().st_mtime_ns == stamp
     assert np.isfinite(float(read_csv(out / "headline.csv")[-1]["theta_matched [deg]"]))
+
+
+def test_csv_has_a_column_for_every_key_of_every_row(tmp_path):
+    from validation.tables import write_csv
+
+    rows = [{"prestretch": 1.0, "r0": 0.0, "r1": 0.0}, {"prestretch": 1.1, "r0": 48.9, "r1": 48.7, "r2": 48.698}]
+    write_csv(tmp_path / "t.csv", rows)
+    back = read_csv(tmp_path / "t.csv")
+    assert back[1]["r2"] == "48.698" and back[0]["r2"] == ""

@@ -35,7 +35,8 @@ def write_csv(path: str | Path, rows: Sequence[dict[str, Any]], columns: Sequenc
               units: dict[str, str] | None = None) -> Path:
     """Write rows (dicts) as CSV, headers carrying units (the state summary's, and ``units``
     for further columns); atomically."""
-    columns = list(columns or (rows[0].keys() if rows else []))
+    # every key of every row: rows may differ (a reference with more refinement levels)
+    columns = list(columns or dict.fromkeys(k for r in rows for k in r))
     buf = io.StringIO()
     w = csv.writer(buf)
     w.writerow([header(c, units) for c in columns])
