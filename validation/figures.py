@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import os
 from pathlib import Path
+from typing import Any
 
 import matplotlib
 
@@ -21,6 +22,14 @@ STYLE = {
     "dr_clustered_strip": dict(color="tab:purple", marker="^", label="DR, clustered net, strip"),
     "reference": dict(color="k", marker="D", label="FEM reference (extrapolated)"),
 }
+
+
+def _label(ax: Any, xlabel: str, ylabel: str, fontsize: int = 7, **legend: Any) -> None:
+    """Axis titles, a light grid (minor lines too on log axes) and the legend."""
+    ax.set_xlabel(xlabel)
+    ax.set_ylabel(ylabel)
+    ax.grid(alpha=0.3, which="both")
+    ax.legend(fontsize=fontsize, **legend)
 
 
 def _save(fig, path: Path) -> Path:
@@ -52,11 +61,8 @@ def bending_angle(a: Analysis, path: Path) -> Path:
         lam = [l for l, _ in refs]
         ax.errorbar(lam, [r.values["bending_angle"] for _, r in refs], yerr=[r.errors["bending_angle"] for _, r in refs],
                     fmt="D-", color="k", ms=4, label=STYLE["reference"]["label"])
-    ax.set_xlabel("pre-stretch ratio [-]")
-    ax.set_ylabel("bending angle [deg]")
     ax.set_title("Bending angle vs pre-stretch (open markers: stopped states)")
-    ax.grid(alpha=0.3)
-    ax.legend(fontsize=7)
+    _label(ax, "pre-stretch ratio [-]", "bending angle [deg]")
     return _save(fig, path)
 
 
@@ -86,10 +92,7 @@ def energy_stroke(a: Analysis, path: Path) -> Path:
     axes[0].set_title("Total strain energy E_DR vs stroke")
     axes[1].set_title("Energy split: membrane (solid) and frame (dashed)")
     for ax in axes:
-        ax.set_xlabel("stroke [deg] (from the most bent converged state)")
-        ax.set_ylabel("energy [N mm]")
-        ax.grid(alpha=0.3)
-        ax.legend(fontsize=6)
+        _label(ax, "stroke [deg] (from the most bent converged state)", "energy [N mm]", fontsize=6)
     return _save(fig, path)
 
 
@@ -99,10 +102,8 @@ def convergence(a: Analysis, path: Path) -> Path:
     for lam, ref in sorted(a.references.items()):
         axes[0].plot(ref.levels, ref.level_values["bending_angle"], "o-", label=f"lambda {lam:g}")
         axes[0].axhline(ref.values["bending_angle"], color=axes[0].lines[-1].get_color(), ls=":", lw=0.8)
-    axes[0].set_xlabel("FEM refinement level (element size / 2^k)")
-    axes[0].set_ylabel("bending angle [deg] (dotted: extrapolated)")
-    axes[0].grid(alpha=0.3)
-    axes[0].legend(fontsize=6, ncol=2)
+    _label(axes[0], "FEM refinement level (element size / 2^k)", "bending angle [deg] (dotted: extrapolated)",
+           fontsize=6, ncol=2)
     rows = [r for r in a.budget if r["kind"] == "discretisation" and np.isfinite(r["shape_rms"]) and r["shape_rms"] > 0]
     fem = [(2.0 ** -int(r["what"].split("refinement ")[1].split()[0]), r["shape_rms"]) for r in rows if r["what"].startswith("FEM refinement")]
     dr = [(1.0 / int(r["what"].split(", ")[1].split()[0]), r["shape_rms"]) for r in rows if r["what"].startswith("DR matched")]
@@ -114,11 +115,8 @@ def convergence(a: Analysis, path: Path) -> Path:
     if fem or dr:
         h = np.array([0.25, 1.0])
         axes[1].loglog(h, 0.5 * max(e for _, e in fem + dr) * h**2, "k:", lw=0.8, label="slope 2")
-    axes[1].set_xlabel("relative element size h / h_coarsest")
-    axes[1].set_ylabel("frame-curve RMS error / side")
     axes[1].set_title(f"Discretisation error at lambda {a.plan.speed_prestretch:g}")
-    axes[1].grid(alpha=0.3, which="both")
-    axes[1].legend(fontsize=7)
+    _label(axes[1], "relative element size h / h_coarsest", "frame-curve RMS error / side")
     return _save(fig, path)
 
 
@@ -135,11 +133,8 @@ def pareto(a: Analysis, path: Path) -> Path:
                 ax.annotate(tag, (r["shape_rms"], r["wall_time"]), fontsize=6, xytext=(3, 2), textcoords="offset points")
     for t in THRESHOLDS:
         ax.axvline(t, color="0.6", ls="--", lw=0.8)
-    ax.set_xlabel("frame-curve RMS error / side (to the extrapolated FEM reference)")
-    ax.set_ylabel("wall time [s]")
     ax.set_title(f"Speed against error at lambda {a.plan.speed_prestretch:g}")
-    ax.grid(alpha=0.3, which="both")
-    ax.legend(fontsize=7)
+    _label(ax, "frame-curve RMS error / side (to the extrapolated FEM reference)", "wall time [s]")
     return _save(fig, path)
 
 
