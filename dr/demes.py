@@ -253,14 +253,15 @@ def sweep(scene: Scene, prestretches: Sequence[float], progress: bool = False,
     state of the same scene (e.g. the last one an interrupted sweep finished), is where the
     sweep continues from.
     """
+    def flatter_than_the_lift(state: Result) -> bool:
+        return bool(np.abs(state.frame_curve()[:, 2]).max() < abs(scene.perturbation.amplitude))
+
     x_prev, flat, lam_prev = None, False, 1.0
     if start is not None and start.converged:
-        x_prev, lam_prev = start.x, start.prestretch
-        flat = np.abs(start.frame_curve()[:, 2]).max() < abs(scene.perturbation.amplitude)
+        x_prev, lam_prev, flat = start.x, start.prestretch, flatter_than_the_lift(start)
     for lam in sorted(float(v) for v in prestretches):
         res = solve(scene, lam, x_start=x_prev, relift=flat, progress=progress, from_prestretch=lam_prev)
         yield res
         if not res.converged:
             return
-        x_prev, lam_prev = res.x, lam
-        flat = np.abs(res.frame_curve()[:, 2]).max() < abs(scene.perturbation.amplitude)
+        x_prev, lam_prev, flat = res.x, lam, flatter_than_the_lift(res)

@@ -14,6 +14,7 @@ from results import Result
 from .compare import Reference, build_reference, state_metrics
 from .plan import Plan, Run
 from .runner import load_states, run_record
+from .sweep import not_reached
 
 THRESHOLDS = (0.01, 0.001)
 """Shape errors (fraction of the side length) of the 'time to reach' table: 1 % and 0.1 %."""
@@ -228,11 +229,9 @@ def _hard(a: Analysis) -> None:
                            "bending_angle": res.bending_angle if res.scene else np.nan,
                            "shape_rms_vs_fem": rms, "bending_angle_diff_vs_fem": dtheta,
                            "peak_memory": rec.get("peak_memory_mb", np.nan), "message": res.message})
-        reached = max(a.states[run.label], default=0.0)
-        for lam in run.prestretches:
-            if lam > reached + 1e-9:
-                a.hard.append({**base, "prestretch": lam, "status": "not reached",
-                               "message": "the path stopped before this pre-stretch"})
+        for lam in not_reached(run.prestretches, list(a.states[run.label])):
+            a.hard.append({**base, "prestretch": lam, "status": "not reached",
+                           "message": "the path stopped before this pre-stretch"})
 
 
 def _reference_rows(a: Analysis) -> None:

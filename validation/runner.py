@@ -29,19 +29,20 @@ def state_path(run_dir: Path, lam: float) -> Path:
     return run_dir / f"{lam:.4f}.npz"
 
 
+def state_key(res: Result, requested: tuple[float, ...]) -> float:
+    """The requested pre-stretch a state solves, or the one it reached if it stopped early."""
+    return next((lam for lam in requested if abs(lam - res.prestretch) < 1e-9), res.prestretch)
+
+
 def load_states(run_dir: Path, requested: tuple[float, ...]) -> dict[float, Result]:
-    """The states of a run that are on disk, keyed by the requested pre-stretch they solve.
+    """The states of a run that are on disk, keyed by :func:`state_key`.
 
     A path that stopped early (contact, no convergence) left its last state at the pre-stretch
-    it reached, which is none of the requested ones; it is loaded too, keyed by that value, so
-    that the report shows where and why the run stopped.
+    it reached, which is none of the requested ones; it is loaded too, so that the report
+    shows where and why the run stopped.
     """
-    states: dict[float, Result] = {}
-    for path in sorted(run_dir.glob("*.npz")):
-        res = load_result(path)
-        key = next((lam for lam in requested if abs(lam - res.prestretch) < 1e-9), res.prestretch)
-        states[key] = res
-    return states
+    states = (load_result(path) for path in sorted(run_dir.glob("*.npz")))
+    return {state_key(res, requested): res for res in states}
 
 
 def run_record(run_dir: Path) -> dict[str, Any] | None:
@@ -97,19 +98,21 @@ def execute(run: Run, scene_data: dict[str, Any], out_dir: str) -> dict[str, Any
     run_dir.mkdir(parents=True, exist_ok=True)
     record: dict[str, Any] = {"run": asdict(run), "states": [], "error": None, "complete": False}
     previous = run_record(run_dir)
-    if previous is not None and previous["run"] != json.loads(json.dumps(asdict(run))):
+    if previous is not None and previous["run"] != _as_recorded(run):
         # the plan changed: the states on disk belong to another run
         for stale in [*run_dir.glob("*.npz"), *run_dir.glob("*.vtu"), *run_dir.glob("*.pvd")]:
             stale.unlink()
     atomic_write_text(run_dir / "run.json", json.dumps(record, indent=1))
     measured = _reset_peak_memory()
     t0 = time.perf_counter()
+    states: dict[float, Result] = {}
     try:
         scene = scenes.Scene.from_dict(scene_data).updated(**run.changes)
-        done = load_states(run_dir, run.prestretches)
-        for res in _states(run, scene, done):
+        states.update(load_states(run_dir, run.prestretches))
+        for res in _states(run, scene, dict(states)):
             save_result(state_path(run_dir, res.prestretch), res)
             res.write_vtk(run_dir / f"{run.label}_{res.prestretch:.3f}.vtu")
+            states[state_key(res, run.prestretches)] = res
     except scenes.SceneError as exc:
         record["error"] = f"scene error: {exc}"
     except Exception as exc:  # a solver failure is a result of the validation, not its end
@@ -118,7 +121,6 @@ def execute(run: Run, scene_data: dict[str, Any], out_dir: str) -> dict[str, Any
     record["wall_time"] = time.perf_counter() - t0
     record["peak_memory_mb"] = _peak_memory_mb()
     record["peak_memory_is_per_run"] = measured
-    states = load_states(run_dir, run.prestretches)
     record["states"] = [
         {"prestretch": lam, "status": r.status, "converged": r.converged, "wall_time": r.wall_time,
          "iterations": r.iterations, "message": r.message}
@@ -134,7 +136,12 @@ def execute(run: Run, scene_data: dict[str, Any], out_dir: str) -> dict[str, Any
 
 def is_complete(run: Run, out_dir: Path) -> bool:
     rec = run_record(out_dir / "runs" / run.label)
-    return bool(rec and rec.get("complete") and rec["run"] == json.loads(json.dumps(asdict(run))))
+    return bool(rec and rec.get("complete") and rec["run"] == _as_recorded(run))
+
+
+def _as_recorded(run: Run) -> dict[str, Any]:
+    """``run`` as its record holds it (through JSON: tuples become lists)."""
+    return json.loads(json.dumps(asdict(run)))
 
 
 def run_plan(plan: Plan, scene_data: dict[str, Any], out_dir: Path, workers: int = 2,

@@ -59,11 +59,16 @@ def stop_notes(results: Sequence[Result], requested: Sequence[float]) -> str:
     """Why each stopped state stopped, and the requested pre-stretches the path did not reach;
     printed under the table and returned."""
     lines = [f"  {r.status}: {r.message}" for r in results if not r.converged]
-    reached = max((r.prestretch for r in results), default=0.0)
-    missed = [lam for lam in requested if lam > reached + 1e-9]
+    missed = not_reached(requested, [r.prestretch for r in results])
     if missed:
         lines.append("  not reached (the path stopped before them): " + " ".join(f"{v:g}" for v in missed))
     text = "\n" + "\n".join(lines) if lines else ""
     if text:
         print(text.lstrip("\n"), flush=True)
     return text
+
+
+def not_reached(requested: Sequence[float], solved: Sequence[float]) -> list[float]:
+    """The requested pre-stretches above the highest one a path got to (it stopped before)."""
+    reached = max(solved, default=0.0)
+    return [lam for lam in requested if lam > reached + 1e-9]
