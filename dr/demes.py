@@ -10,6 +10,7 @@ from scipy.spatial import cKDTree
 
 from results import Result
 from scenes import Scene, SceneError
+from scenes.scene import prestretch_value
 
 from .contact import FrameContact, MembraneFold
 from .model import Model
@@ -46,9 +47,7 @@ def cable_area(scene: Scene, spacing: float) -> float:
 
 def build(scene: Scene, prestretch: float | None = None) -> DemesModel:
     """Build the DR model of ``scene`` at ``prestretch`` (default: the scene's)."""
-    lam = scene.prestretch if prestretch is None else float(prestretch)
-    if lam < 1.0:
-        raise SceneError(f"pre-stretch {lam:g} is below 1: it is a stretch ratio (1.5 = 150 %)")
+    lam = scene.prestretch if prestretch is None else prestretch_value("pre-stretch", prestretch)
     if scene.membrane.law != "linear":
         raise SceneError(
             f"membrane.law = {scene.membrane.law!r}: the DR net models the 'linear' (Hookean cable) "
@@ -256,12 +255,14 @@ def sweep(scene: Scene, prestretches: Sequence[float], progress: bool = False,
     def flatter_than_the_lift(state: Result) -> bool:
         return bool(np.abs(state.frame_curve()[:, 2]).max() < abs(scene.perturbation.amplitude))
 
-    x_prev, flat, lam_prev = None, False, 1.0
+    x_prev, flat, lam_prev, theta = None, False, 1.0, None
     if start is not None and start.converged:
-        x_prev, lam_prev, flat = start.x, start.prestretch, flatter_than_the_lift(start)
-    for lam in sorted(float(v) for v in prestretches):
+        x_prev, lam_prev, flat, theta = start.x, start.prestretch, flatter_than_the_lift(start), start.bending_angle
+    for lam in sorted(set(float(v) for v in prestretches)):
         res = solve(scene, lam, x_start=x_prev, relift=flat, progress=progress, from_prestretch=lam_prev)
+        if theta is not None:
+            res.info["previous_bending_angle"] = theta  # the angle is continued along the sweep
         yield res
         if not res.converged:
             return
-        x_prev, lam_prev, flat = res.x, lam, flatter_than_the_lift(res)
+        x_prev, lam_prev, flat, theta = res.x, lam, flatter_than_the_lift(res), res.bending_angle

@@ -13,6 +13,7 @@ from results import CellBlock, Result
 from . import integrator as itg
 from .contact import FrameContact
 from .errors import DRError
+from .finite import where_not_finite
 from .kernels import EIW, KN0, KW0, LBAR, TAU0, Packed, energy, place_virtual, stiffness, strip_measures
 from .model import Model
 
@@ -20,6 +21,11 @@ Check = Callable[[np.ndarray], "str | None"]
 
 FOLD_PATIENCE = 10
 """Chunks in a row with a folded membrane (``final_checks``) after which an unconverged run stops."""
+
+ENERGY_RISE = 0.5
+"""A run whose strain plus kinetic energy (less the work of the loads) rose above its starting
+value by this fraction of the larger energy scale is diverging: kinetic damping only ever takes
+energy out, so a rise is the time step pumping it in (masses below the stability bound)."""
 
 MASS_EVERY = 100
 """Steps between refreshes of the stiffness bounds behind the masses (tensor masses also
@@ -80,8 +86,17 @@ def relax(
     -------
     Result
         The equilibrium (``converged``), or the last state reached with ``status``
-        'max_iterations', 'diverged' (the last finite state), 'self_contact' or
-        'membrane_fold', and a message with the residual and iteration count.
+        'max_iterations', 'diverged' (energy rising or a node jumping: an unstable time step;
+        checked before any contact or fold is reported), 'not_finite' (a NaN/inf position,
+        force or energy; the last finite state is returned and the message names the node and
+        the degenerate element), 'self_contact' or 'membrane_fold', and a message with the
+        residual and iteration count.
+
+    Raises
+    ------
+    DRError
+        Bad settings, or start positions that give no finite force (coincident nodes of a
+        link, cable or beam, a strip orientation node on its edge's line: named).
     """
     if not (np.isfinite(tol) and tol > 0):
         raise DRError(f"tol = {tol!r} must be a positive number (relative residual, e.g. 1e-6)")
@@ -116,6 +131,11 @@ def relax(
     loads = model.loads
     R = np.zeros((n, 3))
     _update_masses(X, P, G, S, D, loads, free, R, mass_safety, M, Minv, tensor)
+    if not (np.isfinite(R).all() and np.isfinite(Minv).all()):
+        raise DRError(
+            f"the {'start' if x_start is not None else 'reference'} positions give no finite force: at "
+            f"{where_not_finite(X, R, P)}; move the nodes apart"
+        )
     runaway = max(float(np.linalg.norm(np.ptp(X[:n], axis=0))), 1e-9)
     # a residual below the round-off of the stiffest link's force cannot be resolved
     # (positions carry ~2 eps |x|): the force scale is at least 10x that noise over tol
@@ -137,6 +157,18 @@ def relax(
     if tensor:
         itg.build_masses(D, S, free, 0.5 * mass_safety, M, Minv)
 
+    e_start = _mechanical_energy(X, P, loads, V, M)
+
+    def diverging() -> str | None:
+        """Why the run is unstable (energy rising), or None."""
+        e_now = _mechanical_energy(X, P, loads, V, M)
+        rise = e_now - e_start
+        if np.isfinite(rise) and rise <= ENERGY_RISE * max(abs(e_start), abs(e_now), 1e-300):
+            return None
+        return (f"the energy rose from {e_start:.4g} to {e_now:.4g} N mm, which kinetic damping cannot do: "
+                f"the time step is unstable with mass_safety = {mass_safety:g}; raise it (f >= 1 is "
+                "stable, 2 is safe)")
+
     it, peaks, folded_chunks = 1, 0, 0
     history: list[tuple[int, float]] = []
     status, message = "max_iterations", ""
@@ -156,15 +188,22 @@ def relax(
             rel = rmax / max(fmax, force_floor)
             history.append((it, rel))
             bar.set_postfix_str(f"residual {rel:.2e}")
-            if code in (itg.NONFINITE, itg.RUNAWAY):
+            last_good = history[-2][0] if len(history) > 1 else 1
+            if code == itg.NONFINITE:
+                where = where_not_finite(X, R, P, good)
+                X[:] = good
+                status = "not_finite"
+                message = (f"a value became NaN/inf at iteration {it}, first at {where}; the last finite "
+                           f"state (iteration {last_good}) is returned")
+                break
+            unstable = (f"a node jumped more than the model size ({runaway:.3g} mm) in one step: the time "
+                        f"step is unstable with mass_safety = {mass_safety:g}; raise it (2 is safe)"
+                        if code == itg.RUNAWAY else diverging())
+            if unstable:
                 X[:] = good
                 status = "diverged"
-                why = "a value became NaN/inf" if code == itg.NONFINITE else f"a node jumped more than the model size ({runaway:.3g} mm) in one step"
-                message = (
-                    f"DR diverged at iteration {it} ({why}); the last finite state (iteration "
-                    f"{history[-2][0] if len(history) > 1 else 1}) is returned. The time step is "
-                    f"unstable with mass_safety = {mass_safety:g}: raise it (2 is safe)"
-                )
+                message = (f"DR diverged at iteration {it} ({unstable}); the state of iteration "
+                           f"{last_good} is returned")
                 break
             if code == itg.CONTACT:
                 status, message = "self_contact", f"stopped at iteration {it}: {contact(X[:n])}"
@@ -195,11 +234,24 @@ def relax(
     finally:
         bar.close()
     residual_now = history[-1][1]
-    return make_result(
+    res = make_result(
         model, P, X, status == "converged", status, message, it, residual_now,
         np.array(history), time.perf_counter() - t0,
         {"ke_peaks": peaks, "mass_safety": mass_safety, "masses": masses},
     )
+    if not all(np.isfinite(v) for v in res.energy.values()) and status != "not_finite":
+        res.converged, res.status = False, "not_finite"
+        res.message = f"the energy is not finite ({res.message})"
+    return res
+
+
+def _mechanical_energy(X: np.ndarray, P: Packed, loads: np.ndarray, V: np.ndarray, M: np.ndarray) -> float:
+    """Strain energy plus kinetic energy (dt = 1) less the loads' work from the origin, N mm."""
+    e = sum(energy(X, P)) - float(np.sum(loads * X[: P.n]))
+    a, b, c, d, f, g = M.T
+    vx, vy, vz = V.T
+    ke = 0.5 * float(np.sum(a * vx**2 + b * vy**2 + c * vz**2 + 2 * (d * vx * vy + f * vx * vz + g * vy * vz)))
+    return e + ke
 
 
 def _update_masses(X, P, G, S, D, loads, free, R, safety, M, Minv, tensor) -> None:

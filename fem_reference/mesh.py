@@ -24,6 +24,8 @@ from skfem import Basis, ElementTriP1, ElementTriP2, ElementVector, MeshTri1, Me
 
 from scenes import Scene, SceneError
 
+from .errors import FEMError
+
 ELEMENTS = {"P1": ElementTriP1, "P2": ElementTriP2}
 
 
@@ -149,7 +151,8 @@ def _triangulate(points: np.ndarray, loop: int, extra_segments: np.ndarray, h: f
     area = np.sqrt(3.0) / 4.0 * h * h
     out = tr.triangulate({"vertices": points, "segments": segments}, f"pq30a{area:.10f}YY")
     if not np.allclose(out["vertices"][: len(points)], points):
-        raise RuntimeError("triangle changed the boundary points; the outline is too coarse")
+        raise FEMError("the mesh generator moved the outline's points: the outline is too coarse for "
+                       "its corners; raise mesh.divisions or frame.corner_radius")
     return out["vertices"], out["triangles"]
 
 
@@ -274,7 +277,9 @@ def build_mesh(scene: Scene, refinement: int = 0, element: str = "P1") -> Membra
     linear = mesh
     b_vert = np.flatnonzero(~np.isnan(s_of))
     if not np.array_equal(np.sort(b_vert), np.sort(mesh.boundary_nodes())):
-        raise RuntimeError("mesh boundary does not match the outline nodes")
+        raise FEMError("the film mesh's boundary does not follow the outline (a corner too tight for the "
+                       "mesh spacing, or the strip's inner edge crossing itself); raise frame.corner_radius "
+                       "or mesh.divisions")
     nodes_s = s_of[b_vert]
     nodes_inner = inner_of[b_vert]
     nv = mesh.p.shape[1]

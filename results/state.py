@@ -115,9 +115,15 @@ class Result:
 
     @property
     def bending_angle(self) -> float:
-        """Bending angle (deg): base midpoint -> apex above the flat plane, in the symmetry plane."""
+        """Bending angle (deg): base midpoint -> apex above the flat plane, in the symmetry plane,
+        continuous from the flat state (:func:`results.metrics.bending_angle`); in a sweep, the
+        turn nearest the previous state's angle (``info['previous_bending_angle']``)."""
         self._need_scene()
-        return metrics.bending_angle(self.apex, self.frame_point(0.0)[0])
+        x, s, length = self._frame()
+        o = self.scene.outline
+        theta = metrics.bending_angle(x, s, length, o.apex_arc_length(), o.side_length)
+        previous = self.info.get("previous_bending_angle")
+        return theta if previous is None else metrics.nearest_turn(theta, previous)
 
     @property
     def mid_height_width(self) -> float:
