@@ -383,7 +383,7 @@ def make_result(problem: DemesProblem, out: Outcome, requested: float, wall: flo
 def _refinement(scene: Scene, refinement: int | None) -> int:
     if not isinstance(scene, Scene):
         raise SceneError(f"expected a scenes.Scene, got {type(scene).__name__}; use scenes.load(...)")
-    return scene.fem.refinement if refinement is None else integer_at_least(0, 5)("refinement", refinement)
+    return scene.fem.refinement if refinement is None else integer_at_least(0, 5)("fem.refinement", refinement)
 
 
 def sweep(scene: Scene, prestretches: Sequence[float], refinement: int | None = None

@@ -39,8 +39,8 @@ def bending_angle(x: np.ndarray, s: np.ndarray, length: float, s_apex: float, si
     equal arc length from the base midpoint runs from the base to the apex, its direction
     turns continuously from the flat base (unwrapped along it), and the angle is the turn of
     atan2 nearest the mean of that direction (a chord is a mean of the directions along it).
-    Steps shorter than 1e-6 ``size`` mm (the held base, where the midline stands still) are
-    skipped.
+    Steps shorter than a tenth of the median step (along the held base the midline stands
+    still, up to the spline's wiggle, and it slows to a stop at the apex) are skipped.
     """
     t = np.linspace(0.0, s_apex, samples)
     mid = 0.5 * (frame_at(x, s, length, t) + frame_at(x, s, length, -t))
@@ -48,7 +48,7 @@ def bending_angle(x: np.ndarray, s: np.ndarray, length: float, s_apex: float, si
     theta = float(np.degrees(np.arctan2(chord[2], chord[1])))
     step = np.diff(mid[:, 1:], axis=0)
     w = np.hypot(step[:, 0], step[:, 1])
-    keep = w > 1e-6 * size
+    keep = (w > 0.1 * np.median(w)) & (w > 1e-9 * size)
     if not keep.any():
         return theta
     psi = np.degrees(np.unwrap(np.arctan2(step[keep, 1], step[keep, 0])))

@@ -34,11 +34,11 @@ def test_demes_solve_writes_table_csv_and_vtk_series(tmp_path, capsys):
 
 def test_demes_reports_a_bad_scene_field_without_a_traceback(tmp_path, capsys):
     code = main(["solve", "--set", "frame.E=-5", "--out", str(tmp_path), "--no-progress"])
-    assert code == 1
+    assert code == 2
     err = capsys.readouterr().err
     assert "frame.E" in err and "Traceback" not in err
     code = main(["solve", "--prestretch", "0.8", "--out", str(tmp_path), "--no-progress"])
-    assert code == 1 and "below 1" in capsys.readouterr().err
+    assert code == 2 and "below 1" in capsys.readouterr().err
 
 
 def test_demes_solve_names_the_stop_and_the_levels_it_did_not_reach(tmp_path, capsys):
