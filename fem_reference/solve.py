@@ -27,7 +27,7 @@ from scenes.scene import integer_at_least, prestretch_list
 from .contact import Contact, frame_contact, membrane_fold
 from .model import DemesProblem
 from .newton import NewtonResult, NotFactorizable, lowest_mode, newton
-from .output import blocks, compressed_fraction, slack_fraction
+from .output import blocks, compressed_fraction, paper_formula_membrane_energy, slack_fractions
 
 FIRST_STEP = 0.01
 MAX_STEP = 0.05
@@ -312,6 +312,7 @@ def make_result(problem: DemesProblem, out: Outcome, requested: float, wall: flo
     stable = bool(omega > -_neutral_tolerance(scene)) if np.isfinite(omega) else lam == 1.0
     iterations = sum(r.iterations for r in out.records)
     compressed = compressed_fraction(problem, out.y) if lam > 1.0 else 0.0
+    slack = slack_fractions(problem, out.y) if lam > 1.0 else (0.0, 0.0)
     status, converged = out.status, out.converged
     what = {"converged": "converged", "self_contact": "stopped at self-contact",
             "unstable": "found no stable state", "max_iterations": "did not converge",
@@ -351,7 +352,9 @@ def make_result(problem: DemesProblem, out: Outcome, requested: float, wall: flo
         "film_offset_mm": problem.offset,
         "director_lever_mm": 0.5 * scene.frame.width,
         "compressed_area_fraction": compressed,
-        "slack_area_fraction": slack_fraction(problem, out.y) if lam > 1.0 else 0.0,
+        "slack_area_fraction_any": slack[0],
+        "slack_area_fraction_full": slack[1],
+        "energy_membrane_paper_formula": paper_formula_membrane_energy(problem, out.y),
         "requested_prestretch": requested,
     }
     if out.first_contact is not None:

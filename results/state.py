@@ -26,6 +26,8 @@ SUMMARY_COLUMNS = (
     ("energy_frame_torsion", "N mm"),
     ("energy_frame_axial", "N mm"),
     ("energy_total", "N mm"),
+    ("slack_area_fraction_any", "-"),
+    ("slack_area_fraction_full", "-"),
     ("iterations", "-"),
     ("residual", "-"),
     ("wall_time", "s"),
@@ -63,7 +65,9 @@ class Result:
     blocks, point_data
         What the VTK file holds: cell blocks with per-cell fields, and per-node fields.
     info
-        Solver-specific extras (kinetic-energy peaks, element forces, ...).
+        Solver-specific extras (kinetic-energy peaks, element forces, ...); for scenes also
+        ``slack_area_fraction_any`` / ``_full``: the flat membrane area with at least one /
+        every link family slack (a tension field / a slack film).
     """
 
     solver: str
@@ -159,6 +163,8 @@ class Result:
             )
         for k in ENERGY_KEYS:
             row[f"energy_{k}"] = self.energy.get(k, 0.0)
+        for k in ("slack_area_fraction_any", "slack_area_fraction_full"):
+            row[k] = self.info.get(k, np.nan)
         row.update(
             iterations=self.iterations,
             residual=self.residual,
