@@ -12,7 +12,7 @@ from results import Result
 from scenes import Scene, SceneError
 from scenes.scene import prestretch_value
 
-from .contact import FrameContact, MembraneFold
+from .contact import FilmCrossing, FrameContact, MembraneFold
 from .kernels import place_virtual
 from .model import Model
 from .net import Net, build_net
@@ -136,7 +136,7 @@ def build(scene: Scene, prestretch: float | None = None) -> DemesModel:
     contact, final_checks = None, []
     if scene.dr.check_contact:
         contact = FrameContact(np.arange(nf), frame.thickness)
-        final_checks = [MembraneFold(net.triangles, net.nodes)]
+        final_checks = [MembraneFold(net.triangles, net.nodes), FilmCrossing(net.triangles, np.arange(nf))]
     film_node = np.arange(nodes.shape[0])
     film_node[net.nodes.shape[0]:] = np.flatnonzero(held)[: len(extra)]
     return DemesModel(m, net, start, contact, final_checks, _mirror_map(nodes), area, film_node)

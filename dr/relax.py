@@ -13,7 +13,7 @@ from results import CellBlock, Result
 from . import integrator as itg
 from .contact import FrameContact
 from .errors import DRError
-from .finite import where_not_finite
+from .finite import degenerate_elements, where_not_finite
 from .kernels import EIW, KN0, KW0, LBAR, TAU0, Packed, energy, place_virtual, stiffness, strip_measures
 from .model import Model
 
@@ -70,9 +70,10 @@ def relax(
         touch (checked inside the time loop, often enough that nothing passes through).
     final_checks
         Callables (e.g. :class:`dr.MembraneFold`) for states that must not be accepted: a
-        converged state they flag gets status 'membrane_fold', and so does an unconverged run
-        they flag at FOLD_PATIENCE chunk ends in a row (a clustered net may fold for a moment on
-        its way and unfold again, so a single sighting does not stop it).
+        converged state they flag gets the check's ``status`` attribute (default 'membrane_fold';
+        :class:`dr.FilmCrossing`: 'film_contact'), and so does an unconverged run they flag at
+        FOLD_PATIENCE chunk ends in a row (a clustered net may fold for a moment on its way and
+        unfold again, so a single sighting does not stop it).
     masses
         'tensor': direction-dependent masses from each link's stiffness, rebuilt every step
         (a frame node is heavy along the frame only); 'scalar': Barnes' masses f dt^2/2 S.
@@ -132,6 +133,10 @@ def relax(
     M, Minv = np.zeros((n, 6)), np.zeros((n, 6))
     loads = model.loads
     R = np.zeros((n, 3))
+    degenerate = degenerate_elements(X, P)
+    if degenerate:
+        raise DRError(f"the {'start' if x_start is not None else 'reference'} positions are degenerate: "
+                      f"{'; '.join(degenerate)}; move the nodes apart")
     _update_masses(X, P, G, S, D, loads, free, R, mass_safety, M, Minv, tensor)
     if not (np.isfinite(R).all() and np.isfinite(Minv).all()):
         raise DRError(
@@ -179,11 +184,14 @@ def relax(
     try:
         while True:
             steps_left = int(max_iterations) - it
-            code, steps, pk, fmax, rmax = itg.run(
-                X, V, R, M, Minv, S, D, free, loads, P, G, 0.5 * mass_safety,
-                min(chunk, steps_left), segments, closed, distance, watched, tol, force_floor,
-                runaway, MASS_EVERY,
-            )
+            try:
+                code, steps, pk, fmax, rmax = itg.run(
+                    X, V, R, M, Minv, S, D, free, loads, P, G, 0.5 * mass_safety,
+                    min(chunk, steps_left), segments, closed, distance, watched, tol, force_floor,
+                    runaway, MASS_EVERY,
+                )
+            except np.linalg.LinAlgError:  # a NaN reached the strip's mass bound (an eigensolver)
+                code, steps, pk, fmax, rmax = itg.NONFINITE, 0, 0, np.nan, np.nan
             it += steps
             peaks += pk
             bar.update(steps)
@@ -210,17 +218,18 @@ def relax(
             if code == itg.CONTACT:
                 status, message = "self_contact", f"stopped at iteration {it}: {contact(X[:n])}"
                 break
-            hit = next((msg for msg in (c(X[:n]) for c in final_checks) if msg), None)
+            check, hit = next(((c, msg) for c, msg in ((c, c(X[:n])) for c in final_checks) if msg), (None, None))
             folded_chunks = folded_chunks + 1 if hit else 0
             if code == itg.CONVERGED:
                 if hit:
-                    status, message = "membrane_fold", f"converged in {it} iterations to a state with {hit}"
+                    status = getattr(check, "status", "membrane_fold")
+                    message = f"converged in {it} iterations to a state with {hit}"
                 else:
                     status = "converged"
                     message = f"converged in {it} iterations ({peaks} kinetic-energy peaks), residual {rel:.2e}"
                 break
             if folded_chunks >= FOLD_PATIENCE:
-                status = "membrane_fold"
+                status = getattr(check, "status", "membrane_fold")
                 message = (
                     f"stopped at iteration {it}, not converged (relative residual {rel:.2e}): {hit}, "
                     f"for the last {folded_chunks * chunk} steps; a net folded over has no equilibrium to reach"

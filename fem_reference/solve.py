@@ -21,6 +21,7 @@ from typing import Iterator, Sequence
 import numpy as np
 
 from results import ENERGY_KEYS, Result
+from results.crossing import Crossing, film_crossing
 from scenes import Scene, SceneError
 from scenes.scene import integer_at_least, prestretch_list
 
@@ -169,14 +170,19 @@ class Continuation:
             pushes += 1
         return nr, pushes, omega
 
-    def contact(self, y: np.ndarray) -> Contact | None:
-        """Frame self-contact or a membrane fold at positions y, if any."""
+    def contact(self, y: np.ndarray) -> Contact | Crossing | None:
+        """Frame self-contact, the film (or the frame) passing through the film, or a membrane
+        fold at positions y, if any."""
         pb = self.problem
         x = y.reshape(-1, 3)
         mesh = pb.mesh
         found = frame_contact(x[mesh.frame_nodes], pb.held_chain, self.scene.frame.thickness)
         if found is not None:
             return found
+        frame = mesh.frame_nodes
+        crossing = film_crossing(x, mesh.cells[:, :3], np.stack([frame, np.roll(frame, -1)], axis=1))
+        if crossing is not None:
+            return crossing
         # a slack film has no stiffness and its wrinkles are arbitrary: only taut folds count;
         # and the band bonded to the strip is left out: the film leaves the strip's inner edge
         # at an angle (the strip's torque acts there), which is not a fold of the free film
@@ -266,7 +272,7 @@ class Continuation:
             found = self.contact(nr.y)
             if found is not None:
                 free, bad = self._bisect_contact(lam)
-                return Outcome(self.y, self.lam, "self_contact",
+                return Outcome(self.y, self.lam, "film_contact" if isinstance(found, Crossing) else "self_contact",
                                f"{found.describe()} at lambda = {lam:.4f}; first contact between "
                                f"lambda = {free:.4f} and {bad:.4f}", records, (free, bad))
             self.previous, self.lam, self.y = (self.lam, self.y), lam, nr.y
@@ -315,6 +321,7 @@ def make_result(problem: DemesProblem, out: Outcome, requested: float, wall: flo
     slack = slack_fractions(problem, out.y) if lam > 1.0 else (0.0, 0.0)
     status, converged = out.status, out.converged
     what = {"converged": "converged", "self_contact": "stopped at self-contact",
+            "film_contact": "stopped where the film passes through itself or the frame",
             "unstable": "found no stable state", "max_iterations": "did not converge",
             "diverged": "diverged", "time_limit": "stopped at the time limit",
             "not_finite": "stopped at a non-finite value"}[status]
