@@ -12,7 +12,19 @@ from . import metrics
 from .vtk import CellBlock, write_vtu
 
 ENERGY_KEYS = ("membrane", "frame_bending", "frame_torsion", "frame_axial", "total")
-"""Names of the energy split (N mm), the same for every solver."""
+"""Names of the energy split (N mm), the same for every solver (see ENERGY_DEFINITION)."""
+
+ENERGY_DEFINITION = (
+    "Energy: the exact elastic energy of the model, in N mm. Each membrane link or cable and each "
+    "frame axial link of tension N = EA eps, strain eps = (L - L0) / L0 from its rest length L0, "
+    "stores N eps L0 / 2 (a slack tension-only element nothing); the FEM film stores the same "
+    "per lattice direction, E h / (2 lambda) sum_k eps_k^2 per unit flat area. The frame stores "
+    "M^2 L / (2 EI) per node (strip: also in-plane bending and torsion T^2 L / (2 GJ)). The paper "
+    "writes E_DR = sum N eps L / 2 + sum M^2 L / (2 EI), with the current length L: its membrane "
+    "part is larger than the exact one by L / L0, about the pre-stretch (1.5-2x at 150-200 %), "
+    "and is given beside it as info['energy_membrane_paper_formula']."
+)
+"""The energy every solver reports, in words and symbols: the one definition the report quotes."""
 
 SUMMARY_COLUMNS = (
     ("prestretch", "-"),
