@@ -56,7 +56,7 @@ def where_not_finite(X: np.ndarray, R: np.ndarray, P: Packed, before: np.ndarray
     elif bad_r.size:
         where = f"the force on node {bad_r[0]}" + (f" (and {bad_r.size - 1} more)" if bad_r.size > 1 else "")
     else:
-        where = "the masses"
+        where = "the fictitious masses (a stiffness so large or so small that they overflow)"
     elements = degenerate_elements(X, P)
     if not elements and before is not None:
         elements = degenerate_elements(before, P)

@@ -142,7 +142,7 @@ def test_paths_that_are_not_scene_files_give_a_scene_error(tmp_path):
             scenes.load(source)
 
 
-positions = st.integers(min_value=0, max_value=3).map(float)
+positions = st.integers(min_value=0, max_value=4).map(float)
 node_lists = st.lists(st.tuples(positions, positions, positions), min_size=2, max_size=6)
 
 
@@ -154,14 +154,16 @@ def test_random_dr_models_end_in_a_named_error_or_status(nodes, data):
     try:
         m = dr.Model(nodes)
         m.support(data.draw(st.lists(index, min_size=1, max_size=2)))
+        m.add_link(np.arange(n - 1), np.arange(1, n), EA=1.0)  # a connected chain, then extras
         for _ in range(data.draw(st.integers(min_value=1, max_value=8))):
             kind = data.draw(st.sampled_from(["link", "cluster", "beam", "load"]))
             stiffness = data.draw(st.sampled_from([1.0, 1.0, 1.0, 100.0, 100.0, 1e-9, 1e12, 1e300, 0.0, -1.0, math.nan]))
             if kind == "link":
-                m.add_link(data.draw(index), data.draw(index), EA=stiffness,
+                i, j = data.draw(st.lists(index, min_size=2, max_size=2, unique=True))
+                m.add_link(i, j, EA=stiffness,
                            tension_only=data.draw(st.booleans()))
             elif kind == "cluster":
-                m.add_cluster(data.draw(st.lists(index, min_size=2, max_size=4)), EA=stiffness)
+                m.add_cluster(data.draw(st.lists(index, min_size=2, max_size=4, unique=True)), EA=stiffness)
             elif kind == "beam" and n >= 3:
                 m.add_beam(data.draw(st.lists(index, min_size=3, max_size=4, unique=True)), EI=stiffness,
                            EA=data.draw(st.sampled_from([None, 100.0])))
