@@ -133,15 +133,15 @@ def relax(
     M, Minv = np.zeros((n, 6)), np.zeros((n, 6))
     loads = model.loads
     R = np.zeros((n, 3))
+    positions = "start" if x_start is not None else "reference"
     degenerate = degenerate_elements(X, P)
     if degenerate:
-        raise DRError(f"the {'start' if x_start is not None else 'reference'} positions are degenerate: "
-                      f"{'; '.join(degenerate)}; move the nodes apart")
+        raise DRError(f"the {positions} positions are degenerate: {'; '.join(degenerate)}; move the nodes apart")
     _update_masses(X, P, G, S, D, loads, free, R, mass_safety, M, Minv, tensor)
     if not (np.isfinite(R).all() and np.isfinite(Minv).all()):
         raise DRError(
-            f"the {'start' if x_start is not None else 'reference'} positions give no finite force: at "
-            f"{where_not_finite(X, R, P)}; move the nodes apart"
+            f"the {positions} positions give a non-finite force or mass, first at {where_not_finite(X, R, P)}; "
+            "look for coincident nodes or stiffnesses so large that they overflow"
         )
     runaway = max(float(np.linalg.norm(np.ptp(X[:n], axis=0))), 1e-9)
     # a residual below the round-off of the stiffest link's force cannot be resolved
