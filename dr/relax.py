@@ -170,8 +170,8 @@ def relax(
         """Why the run is unstable (energy rising), or None."""
         e_now = _potential_energy(X, P, loads)
         rise = e_now - e_start
-        if np.isfinite(rise) and rise <= ENERGY_RISE * max(abs(e_start), abs(e_now), 1e-300):
-            return None
+        if not np.isfinite(rise) or rise <= ENERGY_RISE * max(abs(e_start), abs(e_now), 1e-300):
+            return None  # a NaN energy is named 'not_finite' when the result is made
         return (f"the energy rose from {e_start:.4g} to {e_now:.4g} N mm, which kinetic damping cannot do: "
                 f"the time step is unstable with mass_safety = {mass_safety:g}; raise it (f >= 1 is "
                 "stable, 2 is safe)")
