@@ -1,7 +1,7 @@
 """Newton's method for energy minimisation, with inertia and lowest-mode checks.
 
-The tangent is factorised as L D L^T (SuperLU with diagonal pivoting in symmetric mode, after a
-symmetric Jacobi scaling); by Sylvester's law the signs of D give the number of negative
+The tangent is factorised as L D L^T (QDLDL, diagonal pivots in an AMD order kept per sparsity
+pattern, after a symmetric Jacobi scaling); by Sylvester's law the signs of D give the number of negative
 eigenvalues, so an indefinite tangent is seen at no extra cost. Where the tangent is not positive
 definite the step uses K + mu M (M the consistent mass matrix, mu raised until the factor is
 positive), so every step is a descent direction; a backtracking line search on the total energy
@@ -18,6 +18,7 @@ import numpy as np
 import scipy.linalg
 import scipy.sparse as sp
 import scipy.sparse.linalg as sla
+import qdldl
 
 DENSE_EIGEN_LIMIT = 4000
 """Free DOFs up to which a dense eigensolver is the last resort for the lowest mode (0.6 s at
@@ -59,30 +60,73 @@ class Factor:
     n: int
 
 
+class _Symbolic:
+    """QDLDL solvers by sparsity pattern: a Newton path factorises matrices of one pattern
+    hundreds of times, and the fill-reducing ordering and elimination tree are made once.
+
+    A solver holds the latest numeric factor of its pattern only; its stamp counts the
+    factorisations so that a stale factor is refused instead of silently used.
+    """
+
+    SIZE = 4
+
+    def __init__(self) -> None:
+        self._solvers: dict[tuple, qdldl.Solver] = {}
+        self._stamps: dict[int, int] = {}
+
+    def factorise(self, A: sp.csc_matrix) -> tuple[qdldl.Solver, int]:
+        key = (A.shape[0], A.indptr.tobytes(), A.indices.tobytes())
+        solver = self._solvers.pop(key, None)
+        if solver is None:
+            solver = qdldl.Solver(A)
+        else:
+            solver.update(A)
+        self._solvers[key] = solver  # most recent last
+        if len(self._solvers) > self.SIZE:
+            self._stamps.pop(id(self._solvers.pop(next(iter(self._solvers)))), None)
+        self._stamps[id(solver)] = self._stamps.get(id(solver), 0) + 1
+        return solver, self._stamps[id(solver)]
+
+    def current(self, solver: qdldl.Solver, stamp: int) -> bool:
+        return self._stamps.get(id(solver)) == stamp
+
+
+_SYMBOLIC = _Symbolic()
+
+
 def factor(A: sp.spmatrix) -> Factor:
-    """L D L^T of a symmetric sparse matrix, with the count of negative eigenvalues.
+    """L D L^T of a symmetric sparse matrix (QDLDL: diagonal pivots in a fill-reducing order,
+    after a symmetric Jacobi scaling), with the count of negative eigenvalues (Sylvester).
+
+    The factor is valid until the next call on a matrix of the same sparsity pattern.
 
     Raises
     ------
     NotFactorizable
-        If A is singular (a zero pivot).
+        If A is singular (a zero pivot) or has a zero on its diagonal.
     """
     A = sp.csc_matrix(A)
+    A.sort_indices()
     d = np.abs(A.diagonal())
-    d[d == 0.0] = 1.0
+    if np.any(d == 0.0):  # no diagonal pivot there: the inertia is out of reach
+        raise NotFactorizable("zero diagonal entry")
     s = 1.0 / np.sqrt(d)
-    S = sp.diags(s)
+    scaled = A.copy()
+    scaled.data *= s[scaled.indices] * np.repeat(s, np.diff(scaled.indptr))
     try:
-        lu = sla.splu((S @ A @ S).tocsc(), permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0,
-                      options={"SymmetricMode": True})
-    except RuntimeError as exc:
+        solver, stamp = _SYMBOLIC.factorise(scaled)
+    except RuntimeError as exc:  # a zero pivot
         raise NotFactorizable(str(exc)) from None
-    if not np.array_equal(lu.perm_r, lu.perm_c):  # an off-diagonal pivot: inertia unknown
-        raise NotFactorizable("the factorisation needed off-diagonal pivots")
-    pivots = lu.U.diagonal()
+    pivots = solver.factors()[1]
     if not np.all(np.isfinite(pivots)) or np.any(pivots == 0.0):
         raise NotFactorizable("zero or non-finite pivot")
-    return Factor(lambda b: s * lu.solve(s * b), int(np.count_nonzero(pivots < 0)), A.shape[0])
+
+    def solve(b: np.ndarray) -> np.ndarray:
+        if not _SYMBOLIC.current(solver, stamp):
+            raise RuntimeError("this factor was overwritten by a later one of the same pattern")
+        return s * solver.solve(s * b)
+
+    return Factor(solve, int(np.count_nonzero(pivots < 0)), A.shape[0])
 
 
 def positive_shift(K: sp.spmatrix, M: sp.spmatrix, start: float) -> tuple[float, Factor, int]:

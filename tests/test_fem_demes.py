@@ -12,7 +12,7 @@ import fem_reference
 import scenes
 from fem_reference.contact import frame_contact, segment_distances
 from fem_reference.frame import Rod, RodProperties
-from fem_reference.jet import Jet, cross, dot, unit
+from fem_reference.rod_kernels import PAPER, STRIP, split, vertex_normals, vertex_terms
 from fem_reference.model import DemesProblem
 from results import ENERGY_KEYS
 
@@ -147,23 +147,36 @@ def test_segment_distance_against_sampling():
     assert np.all(d <= brute + 1e-12) and np.all(brute - d < 1e-4)
 
 
-def test_jet_matches_finite_differences():
+@pytest.mark.parametrize("model", [PAPER, STRIP])
+def test_rod_stencil_derivatives_match_finite_differences(model):
+    """The compiled forward-mode derivatives of the vertex energies and strip normals against
+    central differences of the values (one stencil with a held edge, one free)."""
     rng = np.random.default_rng(6)
-    v = rng.standard_normal((4, 2, 3))
+    S = 2
+    P = np.array([[-1.0, 0.0, 0.0], [0.0, 0.0, 0.0], [1.0, 0.2, 0.0], [-0.5, 1.0, 0.0], [0.5, 1.0, 0.0]])
+    P = P + 0.2 * rng.standard_normal((S, 5, 3))
+    held_a, held_b = np.array([True, False]), np.zeros(S, bool)
+    rest = np.tile(np.eye(3), (S, 1, 1))
+    kappa0 = 0.1 * rng.standard_normal((S, 3))
+    w = np.array([0.7, 1.3])
 
-    def f(J):
-        a, b = J[:, 0], J[:, 1]
-        return dot(unit(cross(a, b)), a) + dot(a, b).sqrt() / (1.0 + dot(b, b))
+    def energy(Q, order):
+        _, b, t = vertex_terms(Q, held_a, held_b, rest, rest, kappa0, w, model, 2.0, 5.0, 1.5, True, order)
+        return b + t
 
-    J = f(Jet.variables(v + [0.0, 0.0, 3.0]))
+    def normals(Q, order):
+        return vertex_normals(Q, held_a, held_b, rest, rest, order)
+
     h = 1e-5
-    for i in range(6):
-        e = np.zeros(6)
-        e[i] = h
-        vp = f(Jet.variables(v + [0.0, 0.0, 3.0] + e.reshape(2, 3)))
-        vm = f(Jet.variables(v + [0.0, 0.0, 3.0] - e.reshape(2, 3)))
-        assert np.allclose((vp.val - vm.val) / (2 * h), J.grad[:, i], atol=1e-8)
-        assert np.allclose((vp.grad - vm.grad) / (2 * h), J.hess[:, i], atol=1e-7)
+    for f in (energy, normals):
+        jets = split(f(P, 2))
+        for i in range(15):
+            e = np.zeros(15)
+            e[i] = h
+            up, down = P + e.reshape(5, 3), P - e.reshape(5, 3)
+            assert np.allclose((f(up, 0)[..., 0] - f(down, 0)[..., 0]) / (2 * h), jets.grad[..., i], atol=1e-7)
+            assert np.allclose((split(f(up, 2)).grad - split(f(down, 2)).grad) / (2 * h), jets.hess[..., i],
+                               atol=1e-6)
 
 
 def test_richardson_recovers_order_and_limit():
