@@ -60,32 +60,67 @@ class Factor:
     n: int
 
 
-class _Symbolic:
-    """QDLDL solvers by sparsity pattern: a Newton path factorises matrices of one pattern
-    hundreds of times, and the fill-reducing ordering and elimination tree are made once.
+@dataclass
+class _Pattern:
+    """A fixed upper-triangular sparsity pattern (CSC) and the QDLDL solver made on it."""
 
-    A solver holds the latest numeric factor of its pattern only; its stamp counts the
-    factorisations so that a stale factor is refused instead of silently used.
+    keys: np.ndarray  # col * n + row of its entries, ascending (CSC order)
+    indptr: np.ndarray
+    indices: np.ndarray
+    solver: qdldl.Solver | None = None
+
+
+class _Symbolic:
+    """QDLDL solvers by matrix size: a Newton path factorises matrices of one structure hundreds
+    of times, and the fill-reducing ordering and elimination tree are made once.
+
+    Each size keeps one upper-triangular pattern, the union of the structures seen (entries of
+    a tangent that happen to be zero drop out of scipy's sums, and the mass matrix has fewer);
+    a matrix is scattered into it, and only an entry outside it makes a new symbolic factor.
+    A solver holds the latest numeric factor only: its stamp counts the factorisations, so
+    that a stale factor is refused instead of silently used.
     """
 
     SIZE = 4
 
     def __init__(self) -> None:
-        self._solvers: dict[tuple, qdldl.Solver] = {}
+        self._patterns: dict[int, _Pattern] = {}
         self._stamps: dict[int, int] = {}
 
     def factorise(self, A: sp.csc_matrix) -> tuple[qdldl.Solver, int]:
-        key = (A.shape[0], A.indptr.tobytes(), A.indices.tobytes())
-        solver = self._solvers.pop(key, None)
-        if solver is None:
-            solver = qdldl.Solver(A)
+        """Factorise the symmetric A (CSC with sorted indices)."""
+        n = A.shape[0]
+        cols = np.repeat(np.arange(n, dtype=np.int64), np.diff(A.indptr))
+        upper = A.indices <= cols
+        keys = cols[upper] * n + A.indices[upper]
+        values = A.data[upper]
+        pattern = self._patterns.pop(n, None)
+        if pattern is None:
+            pattern = self._new_pattern(keys, n)
+        pos = np.minimum(np.searchsorted(pattern.keys, keys), pattern.keys.size - 1)
+        if not np.array_equal(pattern.keys[pos], keys):  # an entry outside: a new symbolic factor
+            self._stamps.pop(id(pattern.solver), None)
+            pattern = self._new_pattern(np.union1d(pattern.keys, keys), n)
+            pos = np.searchsorted(pattern.keys, keys)
+        data = np.zeros(pattern.keys.size)
+        data[pos] = values
+        U = sp.csc_matrix((data, pattern.indices, pattern.indptr), shape=(n, n))
+        if pattern.solver is None:
+            pattern.solver = qdldl.Solver(U, upper=True)
         else:
-            solver.update(A)
-        self._solvers[key] = solver  # most recent last
-        if len(self._solvers) > self.SIZE:
-            self._stamps.pop(id(self._solvers.pop(next(iter(self._solvers)))), None)
-        self._stamps[id(solver)] = self._stamps.get(id(solver), 0) + 1
-        return solver, self._stamps[id(solver)]
+            pattern.solver.update(U, upper=True)
+        self._patterns[n] = pattern  # most recent last
+        if len(self._patterns) > self.SIZE:
+            self._stamps.pop(id(self._patterns.pop(next(iter(self._patterns))).solver), None)
+        stamp = self._stamps.get(id(pattern.solver), 0) + 1
+        self._stamps[id(pattern.solver)] = stamp
+        return pattern.solver, stamp
+
+    @staticmethod
+    def _new_pattern(keys: np.ndarray, n: int) -> _Pattern:
+        cols, rows = np.divmod(keys, n)
+        indptr = np.searchsorted(cols, np.arange(n + 1)).astype(np.int64)
+        return _Pattern(keys, indptr, rows.astype(np.int64))
 
     def current(self, solver: qdldl.Solver, stamp: int) -> bool:
         return self._stamps.get(id(solver)) == stamp
@@ -129,10 +164,18 @@ def factor(A: sp.spmatrix) -> Factor:
     return Factor(solve, int(np.count_nonzero(pivots < 0)), A.shape[0])
 
 
-def positive_shift(K: sp.spmatrix, M: sp.spmatrix, start: float) -> tuple[float, Factor, int]:
-    """Smallest tried mu >= 0 (0, then start * 10^k) with K + mu M positive definite, its factor,
-    and the number of negative eigenvalues of K itself (-1 if K is singular)."""
+def positive_shift(K: sp.spmatrix, M: sp.spmatrix, start: float, resume: float = 0.0
+                   ) -> tuple[float, Factor, int]:
+    """Smallest tried mu >= 0 (0, then start * 10^k from ``resume`` on) with K + mu M positive
+    definite, its factor, and the number of negative eigenvalues of K itself (-1 if K is
+    singular).
+
+    ``resume``: skip the rungs of the ladder below it (a Newton solve passes a tenth of its
+    previous shift: the curvature it has to overcome changes little from one step to the next,
+    and each rung is a factorisation).
+    """
     mu, negative = 0.0, -1
+    rung = start * 10.0 ** max(0, int(np.floor(np.log10(resume / start) + 1e-9))) if resume > start else start
     for _ in range(40):
         try:
             f = factor(K + mu * M if mu > 0 else K)
@@ -142,7 +185,7 @@ def positive_shift(K: sp.spmatrix, M: sp.spmatrix, start: float) -> tuple[float,
                 return mu, f, negative
         except NotFactorizable:
             pass
-        mu = start if mu == 0.0 else 10.0 * mu
+        mu = rung if mu == 0.0 else 10.0 * mu
     raise NotFactorizable("no shift made the tangent positive definite")
 
 
@@ -218,6 +261,7 @@ def newton(problem: Problem, y0: np.ndarray, tol: float = 1e-10, max_iterations:
     history: list[float] = []
     shifted = 0
     start_shift = None
+    mu = 0.0
     last_step = np.inf
     for it in range(max_iterations + 1):
         ev = problem.evaluate(y, 2)
@@ -237,7 +281,7 @@ def newton(problem: Problem, y0: np.ndarray, tol: float = 1e-10, max_iterations:
         if it == max_iterations:
             break
         try:
-            mu, f, negative = positive_shift(Kff, Mff, start_shift)
+            mu, f, negative = positive_shift(Kff, Mff, start_shift, 0.1 * mu)
         except NotFactorizable:
             return NewtonResult(y, False, "diverged", it, r, history, ev.total, -1, shifted)
         if negative != 0 and r < saddle:
