@@ -126,6 +126,43 @@ def test_membrane_stress_of_flat_prestretch():
     assert np.allclose(tensions, 1.5 * 1.0 * 0.05 * 0.3)
 
 
+def test_film_pull_acts_on_the_strip_at_the_film_offset_lever():
+    """Pre-stretched film bonded on the strip's top face (offset d = t/2): through the offset map
+    each frame node's film pull f acts on the strip as the couple d n x f, d |f| about the side
+    (the moment of the forces it puts on the stencil points: centreline nodes and director
+    points; n tilts by the film's lift over the lever, so to O(tilt^2)), and f
+    is the film's pre-stress (T0 = 1.5 E h (lambda - 1) per unit length, here within the strain
+    that the film's lift to z = d over the b/2 lever puts in it)."""
+    lam = 1.3
+    scene = coarse("strip", **{"frame.film_offset": True, "mesh.divisions": 8})
+    pb = DemesProblem(scene, 0, "P1")
+    pb.lam = lam
+    x = pb.initial_guess(lift=False).reshape(-1, 3)
+    xm, normals, ids = pb._film_positions(x)
+    _, g_m, _ = pb.membrane.evaluate(xm, lam, 1)
+    outline = scene.outline
+    centre, tangent = outline.evaluate(np.array(outline.mid_height_arc_lengths()[:1]))
+    t = np.r_[tangent[0], 0.0]
+    ring = pb.mesh.frame_nodes
+    chain = ring[pb.offset_nodes]
+    along = (x[chain, :2] - centre[0]) @ t[:2]
+    across = (x[chain, :2] - centre[0]) @ np.array([-t[1], t[0]])
+    middle = np.flatnonzero((np.abs(along) < 12.0) & (np.abs(across) < 1e-9))
+    pull = -g_m.reshape(-1, 3)[chain[middle]]  # the film's force on the strip (N)
+    pos = pb.offset_nodes[middle]  # chain positions: half the chords to both neighbours
+    tributary = 0.5 * np.linalg.norm(x[ring[(pos + 1) % ring.size]] - x[ring[pos - 1]], axis=1)
+    T0 = 1.5 * scene.membrane.E * scene.membrane.thickness * (lam - 1.0)
+    tilt = pb.offset / (0.5 * scene.frame.width)
+    assert np.linalg.norm(pull, axis=1) == pytest.approx(T0 * tributary, rel=5 * tilt**2)
+    d, points = pb.offset, pb.rod.B @ x
+    for k, f in zip(middle, pull):
+        forces = d * np.einsum("c,cj->j", f, normals.grad[k]).reshape(-1, 3)  # on the 5 stencil points
+        couple = np.cross(points[ids[k]], forces).sum(axis=0)
+        assert couple == pytest.approx(d * np.cross(normals.val[k], f), rel=1e-9, abs=1e-12 * d * np.linalg.norm(f))
+        assert abs(couple @ t) == pytest.approx(d * np.linalg.norm(f), rel=tilt**2)  # lever d, about the side
+        assert np.abs(forces.sum(axis=0)).max() < 1e-12 * np.linalg.norm(f)  # a pure couple
+
+
 def test_frame_contact_finds_a_crossing_and_ignores_a_circle():
     t = np.linspace(0, 2 * np.pi, 200, endpoint=False)
     circle = np.column_stack([np.cos(t), np.sin(t), np.zeros_like(t)])
