@@ -37,7 +37,7 @@ SADDLE = 1e-4  # residual below which an indefinite tangent means a saddle is ne
 MIN_STEP = 1e-4
 TOLERANCE = 1e-8  # largest free nodal force / largest membrane nodal force (round-off floor ~1e-10)
 MAX_EIGEN_STEPS = 6
-CONTACT_BISECTIONS = 5
+CONTACT_BRACKET = 1e-3  # first contact is located to within this pre-stretch interval
 
 
 @dataclass
@@ -193,8 +193,8 @@ class Continuation:
 
     def _bisect_contact(self, bad: float) -> tuple[float, float]:
         """Narrow the first contact between the current state and ``bad``; moves to the last
-        contact-free state found."""
-        for _ in range(CONTACT_BISECTIONS):
+        contact-free state found; the bracket ends narrower than CONTACT_BRACKET."""
+        while bad - self.lam > CONTACT_BRACKET:
             mid = 0.5 * (self.lam + bad)
             nr, _, _ = self.solve_at(mid, self.y)
             if nr.converged and self.contact(nr.y) is None:
