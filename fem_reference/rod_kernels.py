@@ -43,15 +43,16 @@ def _constant(value: float, n: int) -> np.ndarray:
 @numba.njit(cache=True)
 def _mul(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     n = _size(a)
-    r = a[0] * b + b[0] * a
-    r[0] = a[0] * b[0]
+    r = np.empty_like(a)
+    a0, b0 = a[0], b[0]
+    r[0] = a0 * b0
+    for i in range(1, 1 + n):
+        r[i] = a0 * b[i] + b0 * a[i]
     for i in range(n):
         ai, bi = a[1 + i], b[1 + i]
-        if ai == 0.0 and bi == 0.0:
-            continue
         row = 1 + n + i * n
         for j in range(n):
-            r[row + j] += ai * b[1 + j] + bi * a[1 + j]
+            r[row + j] = a0 * b[row + j] + b0 * a[row + j] + ai * b[1 + j] + bi * a[1 + j]
     return r
 
 
@@ -59,15 +60,15 @@ def _mul(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 def _apply(a: np.ndarray, f: float, df: float, d2f: float) -> np.ndarray:
     """Chain rule for a scalar function with value f and derivatives df, d2f at a's value."""
     n = _size(a)
-    r = df * a
+    r = np.empty_like(a)
     r[0] = f
+    for i in range(1, 1 + n):
+        r[i] = df * a[i]
     for i in range(n):
-        ai = a[1 + i]
-        if ai == 0.0:
-            continue
+        ai = d2f * a[1 + i]
         row = 1 + n + i * n
         for j in range(n):
-            r[row + j] += d2f * ai * a[1 + j]
+            r[row + j] = df * a[row + j] + ai * a[1 + j]
     return r
 
 
