@@ -1,4 +1,7 @@
-"""Pre-stretched membrane: hyperelastic laws on the flat reference, assembled with scikit-fem.
+"""Pre-stretched membrane: hyperelastic laws on the flat reference, on a scikit-fem basis.
+
+The laws and the element loop are compiled (:mod:`fem_reference.laws`); scikit-fem gives the
+mesh, the shape-function gradients and the quadrature.
 
 Total-Lagrangian: the unknowns are the positions x of the mesh's DOF nodes, the reference is the
 flat mesh (z = 0) and F = dx/dX is the 3x2 deformation gradient. The rest state is the flat state

@@ -19,9 +19,9 @@ from skfem.helpers import dot as fdot
 from scenes import Scene
 
 from .frame import Rod, RodProperties, StencilTerms, scatter
-from .rod_kernels import Jets
 from .membrane import Membrane
 from .mesh import MembraneMesh, build_mesh
+from .rod_kernels import Jets
 
 ENERGY_PARTS = ("membrane", "frame_bending", "frame_torsion", "frame_axial")
 
