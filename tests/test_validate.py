@@ -105,3 +105,48 @@ def test_csv_has_a_column_for_every_key_of_every_row(tmp_path):
     write_csv(tmp_path / "t.csv", rows)
     back = read_csv(tmp_path / "t.csv")
     assert back[1]["r2"] == "48.698" and back[0]["r2"] == ""
+
+
+class _State:
+    """The few fields of a Result that the branch check reads: a frame curve offset by ``move``."""
+
+    def __init__(self, move: float, stable: bool = True):
+        self.prestretch, self.converged = 1.5, True
+        self.info = {"stable": stable, "lowest_eigenvalue_N_per_mm3": 1e-5 if stable else -1e-5}
+        self.move = move
+        self.scene = scenes.load("demes_paper")
+
+    def frame_curve(self, samples):
+        return np.column_stack([np.linspace(0, 1, samples), np.zeros(samples), np.full(samples, self.move)])
+
+
+def test_branch_check_reports_a_level_that_jumps_and_one_that_is_unstable():
+    from validation.analysis import branch_check
+
+    side = scenes.load("demes_paper").outline.side_length
+    converging = [_State(0.0), _State(4.0), _State(5.0), _State(5.25)]  # moves 4, 1, 0.25 mm
+    assert [r["branch"] for r in branch_check(converging, (0, 1, 2, 3))] == ["first", "same", "same", "same"]
+    assert branch_check(converging, (0, 1, 2, 3))[2]["move"] == pytest.approx(1.0 / side)
+    jumped = [_State(0.0), _State(4.0), _State(5.0), _State(-20.0)]
+    assert branch_check(jumped, (0, 1, 2, 3))[-1]["branch"] == "jump"
+    unstable = [_State(0.0), _State(4.0, stable=False)]
+    assert branch_check(unstable, (0, 1))[-1]["branch"] == "unstable"
+
+
+def test_first_contact_extrapolates_the_levels_brackets():
+    from types import SimpleNamespace
+
+    from validation.analysis import first_contact
+
+    exact, levels = 1.9, (0, 1, 2)
+    states = {}
+    for k in levels:  # contact converging at second order, each bracketed to 1e-3
+        mid = exact + 0.08 * 4.0**-k
+        states[f"fem_r{k}"] = {1.5: SimpleNamespace(info={}),
+                               2.0: SimpleNamespace(info={"first_contact_prestretch": (mid - 5e-4, mid + 5e-4)})}
+    plan = SimpleNamespace(reference_levels=levels)
+    rows = first_contact(plan, states)
+    assert [r["level"] for r in rows] == ["r0", "r1", "r2", "extrapolated"]
+    assert rows[-1]["value"] == pytest.approx(exact, abs=1e-12)
+    assert rows[-1]["order"] == pytest.approx(2.0)
+    assert rows[-1]["error"] >= 5e-4

@@ -17,7 +17,7 @@ import numpy as np
 
 from results import ENERGY_DEFINITION, atomic_write_text
 
-from .analysis import THRESHOLDS, Analysis
+from .analysis import BRANCH_JUMP, THRESHOLDS, Analysis
 from .beam_energy import mismatch_sentence
 from .compare import METRIC_UNITS
 from .tables import format_cell, write_csv
@@ -119,6 +119,22 @@ SLACK = (
     ("slack_area_fraction_any", "some family slack", ".1%"),
     ("slack_area_fraction_full", "all slack", ".1%"),
 )
+BRANCH = (
+    ("prestretch", "lambda", ".2f"),
+    ("level", "level", "d"),
+    ("branch", "branch", ""),
+    ("stable", "stable", ""),
+    ("lowest_eigenvalue", "lowest eigenvalue [N/mm^3]", ".3g"),
+    ("move", "move from previous level [/side]", ".3g"),
+)
+FIRST_CONTACT = (
+    ("level", "level", ""),
+    ("last_free", "last free lambda", ".4f"),
+    ("first_contact", "first contact lambda", ".4f"),
+    ("value", "first contact [-]", ".4f"),
+    ("error", "+- [-]", ".2g"),
+    ("order", "observed order", ".2f"),
+)
 HARD = (
     ("case", "case", ""),
     ("solver", "solver", ""),
@@ -150,6 +166,14 @@ def _findings(a: Analysis) -> list[str]:
         if p:
             out.append("DR as the paper built it (clustered net, Table I isotropic frame): "
                        + ", ".join(f"{r['prestretch']:.2f}: {r['status_paper']}" for r in rows) + ".")
+    contact = [r for r in a.first_contact if r["level"] == "extrapolated"]
+    if contact:
+        c = contact[0]
+        out.append(f"First contact (FEM levels {', '.join(c['levels'])}): lambda = {c['value']:.3f} +- {c['error']:.2g}.")
+    jumps = [r for r in a.branch_rows if r["branch"] not in ("first", "same")]
+    if jumps:
+        out.append("Levels off the converging branch (not extrapolated): " + ", ".join(
+            f"r{r['level']} at {r['prestretch']:.2f} ({r['branch']})" for r in jumps) + ".")
     for r in a.reach:
         if np.isfinite(r["ratio_fem_over_dr"]):
             out.append(f"Time to reach {r['shape_error']:.1%} shape error: DR {r['time_dr']:.3g} s, FEM {r['time_fem']:.3g} s, "
@@ -175,9 +199,12 @@ def write_report(a: Analysis, out_dir: Path, figures: dict[str, Path | None], ti
         "budget": write_csv(out_dir / "error_budget.csv", a.budget, units=units),
         "hard": write_csv(out_dir / "hard_cases.csv", a.hard, units=units),
         "reference": write_csv(out_dir / "reference.csv", a.reference_rows, units=units),
+        "branches": write_csv(out_dir / "branches.csv", a.branch_rows, units=units),
+        "first_contact": write_csv(out_dir / "first_contact.csv", a.first_contact, units=units),
     }
     everything = {"headline": a.headline, "speed": a.speed_rows, "time_to_error": a.reach, "error_budget": a.budget,
-                  "hard_cases": a.hard, "reference": a.reference_rows, "states": a.state_rows,
+                  "hard_cases": a.hard, "reference": a.reference_rows, "branches": a.branch_rows,
+                  "first_contact": a.first_contact, "states": a.state_rows,
                   "runs": a.records, "units": units}
     files["json"] = atomic_write_text(out_dir / "metrics.json", json.dumps(_plain(everything), indent=1))
     lam = a.plan.speed_prestretch
@@ -189,6 +216,14 @@ def write_report(a: Analysis, out_dir: Path, figures: dict[str, Path | None], ti
             "grid convergence index: with three levels the observed order and a factor 1.25, with two the formal order 2 "
             "and a factor 3). Statuses other than 'converged' are the named stops of the solver.",
             Table(HEADLINE, a.headline), figures.get("bending_angle"), figures.get("frame_curves")]),
+        Section("Reference levels: branches and first contact", [
+            "Each FEM level follows the path of the coarsest (its states start Newton from the coarse state) and is "
+            "checked: stable (lowest eigenvalue of the tangent above zero) and converging (the frame curve moves less "
+            f"from the previous level than that one moved, within a factor {BRANCH_JUMP:g}). A level that jumped branch "
+            "or is unstable is listed here and left out of the extrapolation.", Table(BRANCH, a.branch_rows),
+            "First frame-frame or frame-film contact: the bracket each level's path found (bisection to 1e-3 in "
+            "pre-stretch) and the value extrapolated over the levels (Richardson), its error estimate plus half the "
+            "finest bracket.", Table(FIRST_CONTACT, a.first_contact)]),
         Section("Energy against stroke", [ENERGY_DEFINITION, mismatch_sentence(),
                                           "Strain energy split into membrane and frame, against the stroke from the most "
                                           "bent state; dotted: the membrane part by the paper's formula.",
