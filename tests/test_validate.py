@@ -13,13 +13,6 @@ from validation.plan import MATCHED, REFERENCE, build_plan
 from validation.validate import validate
 
 
-@pytest.fixture(scope="module")
-def report(tmp_path_factory):
-    out = tmp_path_factory.mktemp("report")
-    files = validate(scenes.load("demes_paper"), out, quick=True, workers=2, progress=False)
-    return out, files
-
-
 def read_csv(path):
     with open(path) as f:
         return list(csv.DictReader(f))
