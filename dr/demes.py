@@ -39,7 +39,7 @@ def cable_area(scene: Scene, spacing: float) -> float:
     """Cable area (mm^2) that makes the net a film of the scene's thickness: A = sqrt(3)/2 h s.
 
     A triangular net of links EA at spacing s is, for small strains, an isotropic membrane
-    with E t = 2/sqrt(3) EA/s and Poisson's ratio 1/3 (DESIGN.md).
+    with E t = 2/sqrt(3) EA/s and Poisson's ratio 1/3 (docs/elements.md, 'The film as a net of cables').
     """
     return np.sqrt(3) / 2 * scene.membrane.thickness * spacing
 

@@ -1,4 +1,4 @@
-"""Measures of a DEMES state, defined once for every solver (DESIGN.md, 'Definitions').
+"""Measures of a DEMES state, defined once for every solver (docs/metrics.md).
 
 All take frame-centreline data: node positions (k, 3) in mm ordered along the closed frame, and
 their reference (flat) arc lengths s (k,) in mm, starting at the base midpoint.
@@ -35,6 +35,11 @@ def bending_angle(apex: np.ndarray, base_mid: np.ndarray) -> float:
     the base, above 90 once it curls past vertical. A DEMES curls up past vertical (and a
     curled frame past 180 deg, apex below the base plane behind it) or dips a little down,
     so angles are given in [-90, 270) deg rather than wrapping at 180.
+
+    >>> bending_angle(apex=[0.0, 0.0, 10.0], base_mid=[0.0, 0.0, 0.0])        # straight up
+    90.0
+    >>> round(bending_angle(apex=[0.0, -5.0, -1.0], base_mid=[0.0, 0.0, 0.0]), 1)  # curled over
+    191.3
     """
     d = np.asarray(apex, float) - np.asarray(base_mid, float)
     theta = float(np.degrees(np.arctan2(d[2], d[1])))

@@ -2,7 +2,10 @@
 
 >>> import scenes
 >>> scene = scenes.load("demes_paper")          # the built-in paper scene (Table I)
->>> scene = scenes.paper_demes(prestretch=1.3, **{"frame.model": "strip"})
+>>> scene.frame.model, scene.prestretch, scene.mesh.divisions
+('strip', 1.5, 28)
+>>> scene.updated(**{"frame.model": "paper", "mesh.divisions": 20}).frame.model
+'paper'
 """
 
 from __future__ import annotations
