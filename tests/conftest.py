@@ -1,13 +1,7 @@
-"""Shared test set-up: single-threaded BLAS (small arrays, shared 2-core machine), the quick
-validation report (made once, used by the validation tests and the validation example)."""
-
-import os
+"""The quick validation report, made once for the validation tests and the validation example
+(the environment is set in the root conftest.py)."""
 
 import pytest
-
-os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
-os.environ.setdefault("OMP_NUM_THREADS", "1")
-os.environ.setdefault("PYVISTA_OFF_SCREEN", "true")
 
 
 @pytest.fixture(scope="session")
