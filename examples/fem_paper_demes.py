@@ -18,7 +18,7 @@ from results import level_label, write_pvd
 quick = os.environ.get("DEMES_QUICK") == "1"
 out = Path("out/fem_example")
 for model in ("strip",) if quick else ("strip", "paper"):
-    scene = scenes.paper_demes(prestretch=1.5, frame_model=model, **({"mesh.divisions": 6} if quick else {}))
+    scene = scenes.paper_demes(prestretch=1.5, frame_model=model, **({"mesh.divisions": 4} if quick else {}))
     entries = []
     for res in fem_reference.sweep(scene, [1.1, 1.3, 1.5], refinement=0):
         vtu = res.write_vtk(out / f"{model}_{level_label(res.prestretch)}.vtu")
