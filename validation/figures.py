@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import sys
 from pathlib import Path
 from typing import Any
 
@@ -161,7 +162,8 @@ def frame_curves(a: Analysis, path: Path) -> Path:
 
 
 def renders(a: Analysis, lam: float, path: Path) -> Path | None:
-    """pyvista renders of DR (matched, paper) and FEM states at ``lam``: top, side, perspective."""
+    """pyvista renders of DR (matched, paper) and FEM states at ``lam``: top, side, perspective;
+    None (and a note on stderr) where nothing can render off-screen."""
     fem = a.states[f"fem_r{a.plan.reference_levels[-1]}"].get(lam)
     shown = [("FEM reference (finest level)", fem), ("DR matched", a.states["dr_matched"].get(lam)),
              ("DR, paper's model", a.states["dr_paper"].get(lam))]
@@ -169,7 +171,11 @@ def renders(a: Analysis, lam: float, path: Path) -> Path | None:
     if not shown:
         return None
     views = (("top", "xy"), ("side", "yz"), ("perspective", "iso"))
-    pl = render.plotter(shape=(len(shown), 3), window_size=(1050, 330 * len(shown)))
+    try:
+        pl = render.plotter(shape=(len(shown), 3), window_size=(1050, 330 * len(shown)))
+    except render.RenderUnavailable as exc:
+        print(f"demes: the report has no renders: {exc}", file=sys.stderr)
+        return None
     for i, (title, res) in enumerate(shown):
         for j, (vname, cam) in enumerate(views):
             pl.subplot(i, j)
