@@ -1,13 +1,16 @@
 """Pictures without a display: `demes solve` renders its states and prints nothing from VTK."""
 
+import ctypes.util
 import os
 import subprocess
 import sys
 
 import numpy as np
+import pytest
 from matplotlib.image import imread
 
 from results import level_label
+from results.render import RenderUnavailable, headless_window
 
 
 def test_solve_renders_without_a_display_and_vtk_says_nothing(tmp_path):
@@ -38,3 +41,16 @@ def test_level_labels_drop_the_round_off_of_their_grid():
     assert level_label(1.1 + 4 * 0.025) == "1.2" and 1.1 + 4 * 0.025 != 1.2
     assert [level_label(1.0 + 0.1 * k) for k in range(4)] == ["1.0", "1.1", "1.2", "1.3"]
     assert level_label(1.0375) == "1.0375" and level_label(2) == "2.0"
+
+
+def test_a_machine_that_cannot_render_is_told_what_to_install(monkeypatch):
+    for name in ("DISPLAY", "WAYLAND_DISPLAY", "VTK_DEFAULT_OPENGL_WINDOW"):
+        monkeypatch.delenv(name, raising=False)
+    monkeypatch.setattr(sys, "platform", "linux")
+    monkeypatch.setattr(ctypes.util, "find_library", lambda name: "libOSMesa.so.8" if name == "OSMesa" else None)
+    assert headless_window() == "vtkOSOpenGLRenderWindow"
+    monkeypatch.setattr(ctypes.util, "find_library", lambda name: None)
+    with pytest.raises(RenderUnavailable, match="libegl1.*vtk-osmesa"):
+        headless_window()
+    monkeypatch.setenv("DISPLAY", ":0")
+    assert headless_window() is None
