@@ -15,7 +15,7 @@ from typing import Any, Sequence
 
 import numpy as np
 
-from results import ENERGY_DEFINITION, atomic_write_text
+from results import ENERGY_DEFINITION, atomic_write_text, level_label
 
 from .analysis import BRANCH_JUMP, THRESHOLDS, Analysis
 from .beam_energy import mismatch_sentence
@@ -78,7 +78,7 @@ def to_html(sections: Sequence[Section], title: str) -> str:
 
 
 HEADLINE = (
-    ("prestretch", "lambda [-]", ".2f"),
+    ("prestretch", "lambda [-]", "level"),
     ("theta_fem", "theta FEM [deg]", ".2f"),
     ("theta_fem_error", "+- [deg]", ".2g"),
     ("reference_levels", "levels", "d"),
@@ -114,13 +114,13 @@ BUDGET = (
 )
 SLACK = (
     ("run", "run", ""),
-    ("prestretch", "lambda", ".3f"),
+    ("prestretch", "lambda", "level"),
     ("status", "status", ""),
     ("slack_area_fraction_any", "some family slack", ".1%"),
     ("slack_area_fraction_full", "all slack", ".1%"),
 )
 BRANCH = (
-    ("prestretch", "lambda", ".2f"),
+    ("prestretch", "lambda", "level"),
     ("level", "level", "d"),
     ("branch", "branch", ""),
     ("stable", "stable", ""),
@@ -138,7 +138,7 @@ FIRST_CONTACT = (
 HARD = (
     ("case", "case", ""),
     ("solver", "solver", ""),
-    ("prestretch", "lambda", ".3f"),
+    ("prestretch", "lambda", "level"),
     ("status", "status", ""),
     ("iterations", "iterations", "d"),
     ("wall_time", "time [s]", ".3g"),
@@ -156,16 +156,16 @@ def _findings(a: Analysis) -> list[str]:
         last = rows[-1]
         out.append(
             f"FEM reference (strip frame, extrapolated from refinement levels {list(a.plan.reference_levels)}): "
-            + ", ".join(f"{r['prestretch']:.2f}: {r['theta_fem']:.1f} +- {r['theta_fem_error']:.2g} deg" for r in rows) + "."
+            + ", ".join(f"{level_label(r['prestretch'])}: {r['theta_fem']:.1f} +- {r['theta_fem_error']:.2g} deg" for r in rows) + "."
         )
         m = [r for r in rows if np.isfinite(r.get("shape_rms_matched", np.nan))]
         if m:
             out.append("DR matched (link net, strip) frame-curve RMS error / side: "
-                       + ", ".join(f"{r['prestretch']:.2f}: {r['shape_rms_matched']:.3g}" for r in m) + ".")
+                       + ", ".join(f"{level_label(r['prestretch'])}: {r['shape_rms_matched']:.3g}" for r in m) + ".")
         p = [r for r in rows if np.isfinite(r.get("shape_rms_paper", np.nan))]
         if p:
             out.append("DR as the paper built it (clustered net, Table I isotropic frame): "
-                       + ", ".join(f"{r['prestretch']:.2f}: {r['status_paper']}" for r in rows) + ".")
+                       + ", ".join(f"{level_label(r['prestretch'])}: {r['status_paper']}" for r in rows) + ".")
     contact = [r for r in a.first_contact if r["level"] == "extrapolated"]
     if contact:
         c = contact[0]
@@ -173,7 +173,7 @@ def _findings(a: Analysis) -> list[str]:
     jumps = [r for r in a.branch_rows if r["branch"] not in ("first", "same")]
     if jumps:
         out.append("Levels off the converging branch (not extrapolated): " + ", ".join(
-            f"r{r['level']} at {r['prestretch']:.2f} ({r['branch']})" for r in jumps) + ".")
+            f"r{r['level']} at {level_label(r['prestretch'])} ({r['branch']})" for r in jumps) + ".")
     for r in a.reach:
         if np.isfinite(r["ratio_fem_over_dr"]):
             out.append(f"Time to reach {r['shape_error']:.1%} shape error: DR {r['time_dr']:.3g} s, FEM {r['time_fem']:.3g} s, "
