@@ -34,7 +34,7 @@ AREA, EH, LAM, TONLY, LAW = range(5)
 
 _C = math.cos(math.pi / 3.0)
 _S = math.sin(math.pi / 3.0)
-DIRECTIONS = ((1.0, 0.0), (_C, _S), (-_C, _S))
+DIRECTIONS = np.array([[1.0, 0.0], [_C, _S], [-_C, _S]])
 """The lattice directions m_k (the base side is the x axis), as the FEM's linear law."""
 
 
@@ -54,7 +54,7 @@ def shape_gradients(flat: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 @njit(cache=True, error_model="numpy", inline="always")
 def _family(xl, gN, k):
     """f = F m_k and its node weights c_a = grad N_a . m_k, from local rows xl (3, 3)."""
-    mx, my = DIRECTIONS[k]
+    mx, my = DIRECTIONS[k, 0], DIRECTIONS[k, 1]
     c0 = gN[0, 0] * mx + gN[0, 1] * my
     c1 = gN[1, 0] * mx + gN[1, 1] * my
     c2 = gN[2, 0] * mx + gN[2, 1] * my

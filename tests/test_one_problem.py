@@ -85,3 +85,20 @@ def test_the_mesh_is_shared_and_bond_nodes_sit_at_the_lever():
     coarse = membrane_mesh(scene, 0)
     np.testing.assert_allclose(scene.outline.distance(coarse.frame_bond), 1.5, atol=1e-9)
     assert np.isin(coarse.bond_nodes, mesh.bond_nodes).all()
+
+
+@pytest.mark.slow
+def test_dr_triangles_and_fem_find_the_same_states():
+    """Refinement 0 at 110, 130 and 150 %: the two solvers minimise one discrete energy, so
+    their states agree to the solvers' tolerances (coarse mesh: the test budget)."""
+    scene = _coarse("strip")
+    side = scene.outline.side_length
+    lams = [1.1, 1.3, 1.5]
+    pairs = zip(dr.sweep(scene, lams), fem_reference.sweep(scene, lams, refinement=0))
+    for d, f in pairs:
+        assert d.converged and f.converged, (d.message, f.message)
+        gap = d.x[d.frame_nodes] - f.x[f.frame_nodes]
+        assert np.sqrt(np.mean(np.sum(gap**2, axis=1))) <= 1e-4 * side
+        assert abs(d.bending_angle - f.bending_angle) <= 0.05
+        assert d.energy["total"] == pytest.approx(f.energy["total"], rel=1e-5)
+        assert f.bending_angle > 30.0  # a curled state, not the flat one
