@@ -89,25 +89,29 @@ def build(scene: Scene, prestretch: float | None = None) -> DemesModel:
     if extra:
         m.support(np.arange(net.nodes.shape[0], nodes.shape[0]))
 
-    # frame: the free part between the clamps ('taped'), or the whole loop ('pinned')
-    inner = net.edge_inner_nodes()
+    # frame: the free part between the clamps ('taped'), or the whole loop ('pinned'); an
+    # edge's strip plane passes through its bond point, the film point frame.bond_lever inside
+    strip = frame.model == "strip"
+    oriented = strip or d != 0.0
+    if oriented:
+        corners, weights = net.bond_points(frame.lever)
+        bonds = np.array([m.bond_point(c, w) for c, w in zip(corners, weights)])
     if clamps:
         r, l = net.frame_node_at(clamps[0][0]), net.frame_node_at(clamps[1][0])
         chain = np.arange(r, l + 1)
-        orientation = inner[r:l]
+        orientation = bonds[r:l] if oriented else None
         for (s_c, tangent), node in zip(clamps, (r, l)):
             m.clamp(node, tangent, taped=True)
         closed = False
     else:
-        chain, orientation, closed = np.arange(nf), inner, True
-    strip = frame.model == "strip"
+        chain, orientation, closed = np.arange(nf), bonds if oriented else None, True
     m.add_beam(
         chain,
         EI=frame.EI,
         EA=frame.EA,
         EI_strong=frame.EI_strong if strip else None,
         GJ=frame.GJ if strip else None,
-        orientation=orientation if (strip or d != 0.0) else None,
+        orientation=orientation,
         closed=closed,
     )
     if d != 0.0:
@@ -116,22 +120,14 @@ def build(scene: Scene, prestretch: float | None = None) -> DemesModel:
 
     # membrane: lattice lines as clustered cables (the paper) or one link per segment
     area = cable_area(scene, net.spacing)
-    EA = scene.membrane.E * area
     tension_only = scene.membrane.tension_only
-    if strip or d != 0.0:
-        # the film is bonded across the strip's width: the membrane node that sets an edge's
-        # strip plane moves with the strip's cross-section (in a clustered net it could slide
-        # onto the edge's line, where the plane is undefined, and a soft tie lets it be
-        # dragged there). Stress-free ties as stiff as the strip hold it in place and leave
-        # it free to turn with the strip.
-        edges = np.stack([chain[:-1], chain[1:]], axis=1) if not closed else np.stack([chain, np.roll(chain, -1)], axis=1)
-        tied = orientation >= nf
-        ends = edges[tied].ravel()
-        m.add_link(ends, np.repeat(orientation[tied], 2), frame.EA, role="frame")
-    for cable in net.cables:
+    for cable, film in zip(net.cables, net.cable_film):
         c = cable.copy()
         c[0], c[-1] = attach[c[0]], attach[c[-1]]
         flat = np.linalg.norm(np.diff(net.nodes[cable], axis=0), axis=1)
+        # the cable carries the film it stands for: E h (film area) / (cable length), which is
+        # E A inside the lattice and makes up for the lattice's margin at the frame
+        EA = scene.membrane.E * scene.membrane.thickness * film / flat.sum()
         if scene.dr.membrane_net == "clustered":
             m.add_cluster(c, EA, rest_length=flat.sum() / lam, tension_only=tension_only)
         else:

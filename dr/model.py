@@ -84,6 +84,7 @@ class Model:
         self._clamps: dict[int, tuple[np.ndarray, bool, np.ndarray]] = {}
         self._offsets: list[tuple[int, float]] = []
         self._offset_ref: list[np.ndarray] = []  # their reference positions, mm
+        self._bonds: list[tuple[np.ndarray, np.ndarray]] = []  # (3 nodes, 3 weights)
         self._triangles: list[tuple[np.ndarray, float, float, float, bool, int]] = []
         self._rods: list[_Rod] = []
         self.triangles: np.ndarray | None = None  # optional surface for VTK output
@@ -94,8 +95,13 @@ class Model:
         """Number of real nodes."""
         return self.nodes.shape[0]
 
+    @property
+    def n_virtual(self) -> int:
+        """Number of virtual nodes made so far (bond points, then offsets)."""
+        return len(self._bonds) + len(self._offsets)
+
     def _index(self, name: str, i: int, allow_virtual: bool = False) -> int:
-        limit = self.n + (len(self._offsets) if allow_virtual else 0)
+        limit = self.n + (self.n_virtual if allow_virtual else 0)
         try:
             k = int(i)
         except (TypeError, ValueError):
@@ -110,7 +116,7 @@ class Model:
             raise DRError(f"{name} is empty")
         if not np.issubdtype(arr.dtype, np.integer):
             raise DRError(f"{name} must hold node indices (integers)")
-        limit = self.n + (len(self._offsets) if allow_virtual else 0)
+        limit = self.n + (self.n_virtual if allow_virtual else 0)
         bad = arr[(arr < 0) | (arr >= limit)]
         if bad.size:
             raise DRError(f"{name} holds {bad[0]}, not a node of this model (0 .. {limit - 1})")
@@ -168,10 +174,26 @@ class Model:
         return L0
 
     def _ref_positions(self) -> np.ndarray:
-        """Reference positions of real and virtual (offset) nodes."""
-        if not self._offsets:
-            return self.nodes
-        return np.vstack([self.nodes, self._offset_ref])
+        """Reference positions of real and virtual (bond point, offset) nodes."""
+        bonds = [w @ self.nodes[i] for i, w in self._bonds]
+        return np.vstack([self.nodes, *bonds, *self._offset_ref])
+
+    def bond_point(self, nodes: Sequence[int], weights: Sequence[float]) -> int:
+        """A virtual node at sum_a w_a x_a of three real nodes (w >= 0, sum 1): a film point
+        inside a membrane triangle, e.g. where the film turns a strip edge (its orientation).
+
+        Bond points are made before any offset node. Returns the virtual node's index.
+        """
+        i = self._indices("bond point nodes", nodes)
+        w = np.asarray(weights, dtype=float).reshape(-1)
+        if i.size != 3 or w.size != 3:
+            raise DRError("a bond point needs three nodes and three weights")
+        if not np.all(np.isfinite(w)) or np.any(w < -1e-12) or abs(w.sum() - 1.0) > 1e-9:
+            raise DRError("bond point weights must be >= 0 and sum to 1 (barycentric)")
+        if self._offsets:
+            raise DRError("make bond points before offset nodes (offsets may stand on them)")
+        self._bonds.append((i, np.clip(w, 0.0, None)))
+        return self.n + len(self._bonds) - 1
 
     def add_link(
         self,
@@ -254,7 +276,7 @@ class Model:
         n_edges = c.size if closed else c.size - 1
         orient = None
         if orientation is not None:
-            orient = self._indices("beam orientation", orientation)
+            orient = self._indices("beam orientation", orientation, True)
             if orient.size != n_edges:
                 raise DRError(f"beam orientation needs one node per edge ({n_edges}), got {orient.size}")
         if EI_strong is not None:
@@ -394,11 +416,11 @@ class Model:
         if not np.isfinite(d):
             raise DRError("offset distance must be a finite number (mm)")
         geo = self._frame_geometry(k)
-        xl = np.where(geo[:, None] >= 0, self.nodes[np.maximum(geo, 0)], 0.0)
+        xl = np.where(geo[:, None] >= 0, self._ref_positions()[np.maximum(geo, 0)], 0.0)
         nu = np.array(node_frame(xl, geo[3] < 0, geo[4] < 0)[4])
         self._offsets.append((k, d))
         self._offset_ref.append(self.nodes[k] + d * nu)
-        return self.n + len(self._offsets) - 1
+        return self.n + self.n_virtual - 1
 
     # ------------------------------------------------------------------ packing
     def _ghosts(self) -> list[tuple[int, int, np.ndarray, int]]:
@@ -436,7 +458,7 @@ class Model:
 
     def pack(self) -> Packed:
         """The element arrays the compiled kernels take."""
-        n, n_off = self.n, len(self._offsets)
+        n, n_off = self.n, self.n_virtual
         ghosts = self._ghosts()
         ghost_id = {(b, end): n + n_off + g for g, (b, end, _, _) in enumerate(ghosts)}
         x = self.nodes
@@ -488,6 +510,8 @@ class Model:
         cl_seg_cluster = np.repeat(np.arange(len(self._clusters)), [c[0].size - 1 for c in self._clusters])
         P = Packed(
             n=n,
+            bond_nodes=np.array([i for i, _ in self._bonds], dtype=np.int64).reshape(-1, 3),
+            bond_w=np.array([w for _, w in self._bonds], dtype=float).reshape(-1, 3),
             ghost_src=g_src,
             ghost_clamp=g_clamp,
             ghost_t=g_t,

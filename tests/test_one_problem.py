@@ -65,7 +65,7 @@ def test_dr_triangles_and_fem_have_one_energy(model, law):
     x[pb.held] = pb.X[pb.held]
     fem = pb.evaluate(x.ravel(), 1).parts
     P = dm.model.pack()
-    X = np.zeros((P.n + P.off_geo.shape[0] + P.ghost_src.shape[0], 3))
+    X = np.zeros((P.n_total, 3))
     X[: P.n] = x
     mem, bend, twist, axial = energy(X, P)
     for name, value in (("membrane", mem), ("frame_bending", bend), ("frame_torsion", twist),
