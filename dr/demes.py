@@ -94,7 +94,7 @@ def build(scene: Scene, prestretch: float | None = None) -> DemesModel:
     strip = frame.model == "strip"
     oriented = strip or d != 0.0
     if oriented:
-        corners, weights = net.bond_points(frame.lever)
+        corners, weights = net.bond_points(outline, frame.lever)
         bonds = np.array([m.bond_point(c, w) for c, w in zip(corners, weights)])
     if clamps:
         r, l = net.frame_node_at(clamps[0][0]), net.frame_node_at(clamps[1][0])

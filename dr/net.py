@@ -68,14 +68,15 @@ class Net:
         """Index of the frame node nearest to arc length s (mm)."""
         return int(_nearest_periodic(self.frame_s, np.array([s]), self.length)[0])
 
-    def bond_points(self, lever: float) -> tuple[np.ndarray, np.ndarray]:
-        """For each frame edge (k, k+1 mod n_frame), the film point ``lever`` mm inside its
-        flat midpoint as the three nodes (nf, 3) of the membrane triangle that holds it and
-        their barycentric weights (nf, 3)."""
+    def bond_points(self, outline: Outline, lever: float) -> tuple[np.ndarray, np.ndarray]:
+        """For each frame edge (k, k+1 mod n_frame), its bond point, as the FEM's: the midpoint
+        of the points ``lever`` mm inside its two ends (along the outline's normals). Returns
+        the three nodes (nf, 3) of the membrane triangle that holds it and their barycentric
+        weights (nf, 3)."""
         nf = self.n_frame
-        a, b = self.nodes[:nf, :2], self.nodes[(np.arange(nf) + 1) % nf, :2]
-        t = (b - a) / np.linalg.norm(b - a, axis=1)[:, None]
-        p = 0.5 * (a + b) + lever * np.column_stack([-t[:, 1], t[:, 0]])  # inward: outline is ccw
+        xy0, t = outline.evaluate(self.frame_s)
+        inner = xy0 + lever * np.column_stack([-t[:, 1], t[:, 0]])  # inward: the outline is ccw
+        p = 0.5 * (inner + np.roll(inner, -1, axis=0))
         xy = self.nodes[:, :2]
         tri = Triangulation(xy[:, 0], xy[:, 1], self.triangles)
         cell = tri.get_trifinder()(p[:, 0], p[:, 1])
