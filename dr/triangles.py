@@ -24,6 +24,7 @@ import math
 import numpy as np
 from numba import njit
 
+from .blocks import add_block
 from .vec import add_to, get, norm, scale
 
 LINEAR, NEO_HOOKEAN = 0, 1
@@ -152,20 +153,8 @@ def triangle_gradient(X, idx, gN, par, G, D, xl, gl):
         csum = abs(c[0]) + abs(c[1]) + abs(c[2])
         for a in range(3):
             w = abs(c[a]) * csum
-            _add_block(D, idx[a], e, w * k_axial, w * k_geo)
+            add_block(D, idx[a], e, w * k_axial, w * k_geo)
     return fmax
-
-
-@njit(cache=True, error_model="numpy", inline="always")
-def _add_block(D, i, e, k_axial, k_geo):
-    """D[i] += k_axial e e^T + k_geo (I - e e^T); D rows are xx yy zz xy xz yz."""
-    kd = k_axial - k_geo
-    D[i, 0] += kd * e[0] * e[0] + k_geo
-    D[i, 1] += kd * e[1] * e[1] + k_geo
-    D[i, 2] += kd * e[2] * e[2] + k_geo
-    D[i, 3] += kd * e[0] * e[1]
-    D[i, 4] += kd * e[0] * e[2]
-    D[i, 5] += kd * e[1] * e[2]
 
 
 @njit(cache=True, error_model="numpy")
@@ -211,3 +200,34 @@ def triangle_stiffness(X, idx, gN, par, S, with_links, xl):
         csum = abs(c[0]) + abs(c[1]) + abs(c[2])
         for a in range(3):
             S[idx[a]] += abs(c[a]) * csum * (k_axial + k_geo)
+
+
+@njit(cache=True, error_model="numpy")
+def gradient(X, P, G, D):
+    """Add all triangles' energy gradient (and blocks) to G (and D). Returns the largest
+    nodal force, N."""
+    xl = np.zeros((3, 3))
+    gl = np.zeros((3, 3))
+    fmax = 0.0
+    for k in range(P.tri_idx.shape[0]):
+        fmax = max(fmax, triangle_gradient(X, P.tri_idx[k], P.tri_grad[k], P.tri_par[k], G, D, xl, gl))
+    return fmax
+
+
+@njit(cache=True, error_model="numpy")
+def energy(X, P):
+    """Strain energy of all triangles, N mm."""
+    xl = np.zeros((3, 3))
+    e = 0.0
+    for k in range(P.tri_idx.shape[0]):
+        _gather(X, P.tri_idx[k], xl)
+        e += triangle_local(xl, P.tri_grad[k], P.tri_par[k], xl, False)
+    return e
+
+
+@njit(cache=True, error_model="numpy")
+def stiffness(X, P, S, with_links):
+    """Per-node bounds of all triangles into S (see :func:`triangle_stiffness`)."""
+    xl = np.zeros((3, 3))
+    for k in range(P.tri_idx.shape[0]):
+        triangle_stiffness(X, P.tri_idx[k], P.tri_grad[k], P.tri_par[k], S, with_links, xl)
