@@ -137,23 +137,25 @@ def triangle_gradient(X, idx, gN, par, G, D, xl, gl):
     blocks (linear law). xl, gl: (3, 3) scratch. Returns the largest nodal force, N."""
     _gather(X, idx, xl)
     gl[:] = 0.0
-    triangle_local(xl, gN, par, gl, True)
+    if par[LAW] == NEO_HOOKEAN:
+        triangle_local(xl, gN, par, gl, True)
+    else:  # one pass over the families for the forces and the blocks
+        k_axial = par[AREA] * par[EH] * par[LAM]
+        for k in range(3):
+            f, c = _family(xl, gN, k)
+            lf = norm(f)
+            force = par[AREA] * par[EH] * _strain(par, lf)  # d(energy)/d|f|, N mm
+            e = scale(f, 1.0 / lf)
+            csum = abs(c[0]) + abs(c[1]) + abs(c[2])
+            for a in range(3):
+                add_to(gl, a, e, force * c[a])
+                if D.shape[0] > 0:
+                    w = abs(c[a]) * csum
+                    add_block(D, idx[a], e, w * k_axial, w * abs(force) / lf)
     fmax = 0.0
     for a in range(3):
         add_to(G, idx[a], get(gl, a), 1.0)
         fmax = max(fmax, norm(get(gl, a)))
-    if D.shape[0] == 0 or par[LAW] == NEO_HOOKEAN:
-        return fmax
-    k_axial = par[AREA] * par[EH] * par[LAM]
-    for k in range(3):
-        f, c = _family(xl, gN, k)
-        lf = norm(f)
-        e = scale(f, 1.0 / lf)
-        k_geo = abs(par[AREA] * par[EH] * _strain(par, lf)) / lf
-        csum = abs(c[0]) + abs(c[1]) + abs(c[2])
-        for a in range(3):
-            w = abs(c[a]) * csum
-            add_block(D, idx[a], e, w * k_axial, w * k_geo)
     return fmax
 
 
