@@ -28,7 +28,7 @@ def curvatures(X, idx):
     return out
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", inline="always")
 def gradient(X, P, G, D):
     """Add the beams' energy gradient to G. Returns the largest nodal force, N."""
     fmax = 0.0

@@ -19,7 +19,7 @@ def _length(X, P, c):
     return L
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", inline="always")
 def gradient(X, P, G, D):
     """Add the clusters' energy gradient to G. Returns the largest cable tension, N."""
     fmax = 0.0

@@ -17,7 +17,7 @@ def tension(EA, L0, L, tension_only):
     return t
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", inline="always")
 def gradient(X, P, G, D):
     """Add the links' energy gradient to G and, if D has rows, each link end's exact block
     EA/L0 e e^T + |T|/L (I - e e^T) (a link's stiffness is at most twice its block diagonal).

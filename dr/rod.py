@@ -171,7 +171,7 @@ def rod_hessian(xl, idx, par, H):
                     H[3 * rr + cc, 3 * r + c] = (gp[rr, cc] - gm[rr, cc]) / (2.0 * h)
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", inline="always")
 def gradient(X, P, G, D):
     """Add all rod vertices' energy gradient to G and, if D has rows, the strip rod's mass
     blocks turned with each vertex's material frame. Returns the largest nodal force, N."""

@@ -139,7 +139,7 @@ def _strip_blocks(xl, fixed1, fixed2, par, H, out):
     frame_blocks(H, active, frame, out)
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", inline="always")
 def gradient(X, P, G, D):
     """Add the strips' energy gradient to G and, if D has rows, their mass blocks turned with
     each node's current material frame. Returns the largest nodal force, N."""

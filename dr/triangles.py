@@ -204,7 +204,7 @@ def triangle_stiffness(X, idx, gN, par, S, with_links, xl):
             S[idx[a]] += abs(c[a]) * csum * (k_axial + k_geo)
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", inline="always")
 def gradient(X, P, G, D):
     """Add all triangles' energy gradient (and blocks) to G (and D). Returns the largest
     nodal force, N."""
