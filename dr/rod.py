@@ -175,6 +175,8 @@ def rod_hessian(xl, idx, par, H):
 def gradient(X, P, G, D):
     """Add all rod vertices' energy gradient to G and, if D has rows, the strip rod's mass
     blocks turned with each vertex's material frame. Returns the largest nodal force, N."""
+    if P.rod_idx.shape[0] == 0:
+        return 0.0  # no scratch arrays for a model without this element
     xl = np.zeros((ROWS, 3))
     gl = np.zeros((ROWS, 3))
     fmax = 0.0

@@ -208,6 +208,8 @@ def triangle_stiffness(X, idx, gN, par, S, with_links, xl):
 def gradient(X, P, G, D):
     """Add all triangles' energy gradient (and blocks) to G (and D). Returns the largest
     nodal force, N."""
+    if P.tri_idx.shape[0] == 0:
+        return 0.0  # no scratch arrays for a model without this element
     xl = np.zeros((3, 3))
     gl = np.zeros((3, 3))
     fmax = 0.0
