@@ -156,8 +156,7 @@ def _findings(a: Analysis) -> list[str]:
                        f"ratio FEM/DR {r['ratio_fem_over_dr']:.3g}.")
         else:
             which = [m.upper() for m in ("dr", "fem") if not np.isfinite(r[f"time_{m}"])]
-            out.append(f"{r['shape_error']:.1%} shape error is not reached by {' and '.join(which)} in this study "
-                       "in this study.")
+            out.append(f"{r['shape_error']:.1%} shape error is not reached by {' and '.join(which)} in this study.")
     return out
 
 
