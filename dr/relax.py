@@ -13,8 +13,10 @@ from results import CellBlock, Result
 from . import integrator as itg
 from .contact import FrameContact
 from .errors import DRError
+from .beams import curvatures
 from .finite import degenerate_elements, where_not_finite
-from .kernels import EIW, KN0, KW0, LBAR, TAU0, Packed, energy, place_virtual, stiffness, strip_measures
+from .kernels import Packed, energy, place_virtual, stiffness
+from .strips import EIW, KN0, KW0, LBAR, TAU0, strip_measures
 from .model import Model
 
 Check = Callable[[np.ndarray], "str | None"]
@@ -117,7 +119,7 @@ def relax(
     t0 = time.perf_counter()
     P = model.pack()
     n = P.n
-    X = np.zeros((n + P.off_geo.shape[0] + P.ghost_src.shape[0], 3))
+    X = np.zeros((P.n_total, 3))
     if x_start is None:
         X[:n] = model.nodes
     else:
@@ -290,11 +292,8 @@ def element_forces(model: Model, P: Packed, X: np.ndarray) -> dict[str, np.ndarr
     out["cluster_tension"] = np.where(P.clu_tension_only & (tc < 0), 0.0, tc)
     moment = np.zeros(P.n)
     if P.beam_idx.size:
-        s, b, f = P.beam_idx.T
-        a, c = X[b] - X[s], X[f] - X[b]
-        kap = 2 * np.linalg.norm(np.cross(a, c), axis=1) / (
-            np.linalg.norm(a, axis=1) * np.linalg.norm(c, axis=1) * np.linalg.norm(X[f] - X[s], axis=1)
-        )
+        b = P.beam_idx[:, 1]
+        kap = curvatures(X, P.beam_idx)
         np.add.at(moment, b[b < P.n], (P.beam_EI * (kap - P.beam_k0))[b < P.n])
     if P.strip_idx.size:
         meas = strip_measures(X, P.strip_idx)
@@ -333,7 +332,9 @@ def make_result(
     n = P.n
     # display: offsets and ghosts are drawn at the frame node they belong to
     real = np.arange(X.shape[0])
-    real[n : n + P.off_geo.shape[0]] = P.off_geo[:, 1]
+    nb = P.bond_nodes.shape[0]
+    real[n : n + nb] = P.bond_nodes[np.arange(nb), np.argmax(P.bond_w, axis=1)] if nb else real[n : n + nb]
+    real[n + nb : n + nb + P.off_geo.shape[0]] = P.off_geo[:, 1]
     blocks: dict[str, CellBlock] = {}
     mem = ~P.link_frame
     if mem.any():

@@ -160,7 +160,7 @@ def _findings(a: Analysis) -> list[str]:
         )
         m = [r for r in rows if np.isfinite(r.get("shape_rms_matched", np.nan))]
         if m:
-            out.append("DR matched (link net, strip) frame-curve RMS error / side: "
+            out.append("DR matched (triangles, strip) frame-curve RMS error / side: "
                        + ", ".join(f"{level_label(r['prestretch'])}: {r['shape_rms_matched']:.3g}" for r in m) + ".")
         p = [r for r in rows if np.isfinite(r.get("shape_rms_paper", np.nan))]
         if p:
@@ -174,14 +174,21 @@ def _findings(a: Analysis) -> list[str]:
     if jumps:
         out.append("Levels off the converging branch (not extrapolated): " + ", ".join(
             f"r{r['level']} at {level_label(r['prestretch'])} ({r['branch']})" for r in jumps) + ".")
+    lam = a.plan.speed_prestretch
+    fem_ref = a.references.get(lam)
+    if a.dr_limit is not None and fem_ref is not None:
+        out.append(
+            f"Extrapolated limits at lambda = {lam:g}, bending angle: DR triangles "
+            f"{a.dr_limit.values['bending_angle']:.3f} +- {a.dr_limit.errors['bending_angle']:.2g} deg, FEM "
+            f"{fem_ref.values['bending_angle']:.3f} +- {fem_ref.errors['bending_angle']:.2g} deg "
+            "(the same discrete problem refined by each solver).")
     for r in a.reach:
         if np.isfinite(r["ratio_fem_over_dr"]):
             out.append(f"Time to reach {r['shape_error']:.1%} shape error: DR {r['time_dr']:.3g} s, FEM {r['time_fem']:.3g} s, "
                        f"ratio FEM/DR {r['ratio_fem_over_dr']:.3g}.")
         else:
             which = [m.upper() for m in ("dr", "fem") if not np.isfinite(r[f"time_{m}"])]
-            out.append(f"{r['shape_error']:.1%} shape error is not reached by {' and '.join(which)} in this study "
-                       "(for DR the model-form error of the net against the continuum is part of its error).")
+            out.append(f"{r['shape_error']:.1%} shape error is not reached by {' and '.join(which)} in this study.")
     return out
 
 
