@@ -96,8 +96,12 @@ def build(scene: Scene, prestretch: float | None = None) -> DemesModel:
     strip = frame.model == "strip"
     oriented = strip or d != 0.0
     if oriented:
-        corners, weights = net.bond_points(outline, frame.lever)
-        bonds = np.array([m.bond_point(c, w) for c, w in zip(corners, weights)])
+        # The net's edges take their strip plane from the lattice node beside them, held by
+        # stress-free ties as stiff as the strip. The bond point frame.bond_lever inside (as
+        # the FEM and the DR triangles) made the tension-only nets unstable (12 divisions,
+        # 1.1-1.45: 'diverged' at every mass safety factor up to 4), so the nets keep this
+        # mesh-dependent lever until that is solved.
+        bonds = net.edge_inner_nodes()
     if clamps:
         r, l = net.frame_node_at(clamps[0][0]), net.frame_node_at(clamps[1][0])
         chain = np.arange(r, l + 1)
@@ -116,6 +120,10 @@ def build(scene: Scene, prestretch: float | None = None) -> DemesModel:
         orientation=orientation,
         closed=closed,
     )
+    if oriented:
+        edges = np.stack([chain[:-1], chain[1:]], axis=1) if not closed else np.stack([chain, np.roll(chain, -1)], axis=1)
+        tied = orientation >= nf
+        m.add_link(edges[tied].ravel(), np.repeat(orientation[tied], 2), frame.EA, role="frame")
     if d != 0.0:
         for k in chain if closed else chain[1:-1]:
             attach[k] = m.offset_node(k, d)

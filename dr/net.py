@@ -14,7 +14,6 @@ from dataclasses import dataclass
 
 import numpy as np
 import triangle
-from matplotlib.tri import Triangulation
 
 from scenes import Outline, SceneError
 
@@ -68,26 +67,18 @@ class Net:
         """Index of the frame node nearest to arc length s (mm)."""
         return int(_nearest_periodic(self.frame_s, np.array([s]), self.length)[0])
 
-    def bond_points(self, outline: Outline, lever: float) -> tuple[np.ndarray, np.ndarray]:
-        """For each frame edge (k, k+1 mod n_frame), its bond point, as the FEM's: the midpoint
-        of the points ``lever`` mm inside its two ends (along the outline's normals). Returns
-        the three nodes (nf, 3) of the membrane triangle that holds it and their barycentric
-        weights (nf, 3)."""
+    def edge_inner_nodes(self) -> np.ndarray:
+        """For each frame edge (k, k+1 mod n_frame), the third node of its membrane triangle."""
         nf = self.n_frame
-        xy0, t = outline.evaluate(self.frame_s)
-        inner = xy0 + lever * np.column_stack([-t[:, 1], t[:, 0]])  # inward: the outline is ccw
-        p = 0.5 * (inner + np.roll(inner, -1, axis=0))
-        xy = self.nodes[:, :2]
-        tri = Triangulation(xy[:, 0], xy[:, 1], self.triangles)
-        cell = tri.get_trifinder()(p[:, 0], p[:, 1])
-        if np.any(cell < 0):
-            raise SceneError(f"frame.bond_lever = {lever:g} mm puts a bond point outside the membrane")
-        corners = self.triangles[cell]
-        q = xy[corners]  # (nf, 3, 2)
-        T = np.stack([q[:, 1] - q[:, 0], q[:, 2] - q[:, 0]], axis=2)
-        w12 = np.linalg.solve(T, (p - q[:, 0])[:, :, None])[:, :, 0]
-        w = np.column_stack([1.0 - w12.sum(axis=1), w12])
-        return corners, np.clip(w, 0.0, 1.0) / np.clip(w, 0.0, 1.0).sum(axis=1)[:, None]
+        out = np.full(nf, -1, dtype=np.int64)
+        for t in self.triangles:
+            for a, b, c in ((t[0], t[1], t[2]), (t[1], t[2], t[0]), (t[2], t[0], t[1])):
+                if a < nf and b < nf and (b - a) % nf == 1:
+                    out[a] = c
+        if np.any(out < 0):
+            raise SceneError("mesh.divisions is too small: a frame edge has no membrane triangle")
+        return out
+
 
 
 def build_net(outline: Outline, divisions: int, landmarks: list[float]) -> Net:
