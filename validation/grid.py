@@ -124,8 +124,6 @@ def grid_from_dict(data: dict[str, Any], *, name: str = "grid", base_dir: Path =
             raise GridError(f"product field {field!r} = {values!r} must be a list of values, e.g. [{values!r}]")
         if not values:
             raise GridError(f"product field {field!r} has an empty list: give it at least one value")
-        for value in values:
-            _checked(base, {field: value}, f"product field {field!r}")
     points = _points(data.get("points", []), base)
     both = sorted(set(product) & {f for p in points for f in p})
     if both:
@@ -138,7 +136,6 @@ def grid_from_dict(data: dict[str, Any], *, name: str = "grid", base_dir: Path =
         raise GridError("prestretch is an empty list: give at least one pre-stretch ratio, e.g. [1.1, 1.2]")
     if len({f"{v:.4f}" for v in prestretches}) < len(prestretches):
         raise GridError(f"prestretch = {list(prestretches)} repeats a value (to 4 decimals)")
-
     n_points = len(points or [{}]) * math.prod(len(v) for v in product.values()) * len(prestretches)
     if n_points > max_points:
         sizes = [f"{len(points)} listed points"] * bool(points) + [f"{len(v)} {k}" for k, v in product.items()]
@@ -146,6 +143,9 @@ def grid_from_dict(data: dict[str, Any], *, name: str = "grid", base_dir: Path =
             f"the grid has {n_points} points ({' x '.join([*sizes, f'{len(prestretches)} pre-stretches'])}), "
             f"more than the limit of {max_points}: raise it with --max-points {n_points} if you mean it"
         )
+    for field, values in product.items():
+        for value in values:
+            _checked(base, {field: value}, f"product field {field!r}")
     fields = tuple(dict.fromkeys([*(f for p in points for f in p), *product]))
     families = []
     for point in points or [{}]:

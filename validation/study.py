@@ -169,7 +169,8 @@ def write_table(table: pd.DataFrame, out_dir: Path, name: str) -> dict[str, Path
 
 
 def run_study(grid: Grid, out_dir: str | Path, *, scheduler: str | None = None,
-              workers: int = DEFAULT_WORKERS, vtk: bool = False, progress: bool = True) -> Study:
+              workers: int = DEFAULT_WORKERS, vtk: bool = False, plots: bool = True,
+              progress: bool = True) -> Study:
     """Solve every point of ``grid`` without a record in ``out_dir``, then write the table
     (``<grid>.csv``, ``<grid>.parquet``) and the plots (``figures/``).
 
@@ -180,6 +181,8 @@ def run_study(grid: Grid, out_dir: str | Path, *, scheduler: str | None = None,
         ``workers`` single-threaded processes (``workers <= 1``: this process, serially).
     vtk
         Also write a ParaView series per family (``points/<family>/<family>.pvd``).
+    plots
+        Draw each measure against each swept field (``figures/<field>.png``).
     """
     from .study_figures import measure_plots
 
@@ -200,5 +203,6 @@ def run_study(grid: Grid, out_dir: str | Path, *, scheduler: str | None = None,
                 failed[outcome.task.key] = outcome.error
     table = study_table(grid, out, failed)
     files = write_table(table, out, grid.name)
-    files.update(measure_plots(table, grid, out / "figures"))
+    if plots:
+        files.update(measure_plots(table, grid, out / "figures"))
     return Study(table, tuple(solved), failed, files, time.perf_counter() - t0)
