@@ -140,7 +140,7 @@ def test_cluster_run_survives_a_killed_worker_and_equals_the_serial_run(serial, 
     path = tmp_path / "study.toml"
     path.write_text(GRID_TOML)
     assert main(["sweep", str(path), "--out", str(tmp_path), "--workers", "1", "--no-progress"]) == 0
-    assert "4 converged; 0 paths solved" in capsys.readouterr().out  # resume: nothing recomputed
+    assert "4 converged; solved 0 path(s) now" in capsys.readouterr().out  # resume: nothing recomputed
     assert {f.key: mtimes(tmp_path, f) for f in g.families} == before
     pd.testing.assert_frame_equal(pd.read_parquet(tmp_path / "study.parquet"), study.table)
     for plot in ("prestretch", "mesh.divisions"):
@@ -158,3 +158,15 @@ def test_a_stopped_path_records_why_and_the_pre_stretches_it_did_not_reach(tmp_p
     assert table["bending_angle"][:2].notna().all() and table["bending_angle"][2:].isna().all()
     again = run_study(g, tmp_path, workers=1, plots=False, progress=False)
     assert again.solved == () and again.table.equals(table)
+
+
+def test_a_failed_path_is_reported_and_left_to_the_rerun(tmp_path, monkeypatch):
+    def broken(family, out_dir, vtk):
+        raise FloatingPointError(f"path {family.key} diverged")
+
+    monkeypatch.setattr("validation.study.solve_family", broken)
+    study = run_study(grid(), tmp_path, workers=1, plots=False, progress=False)
+    assert set(study.failed) == {f.key for f in grid().families} and study.solved == ()
+    assert (study.table["status"] == "failed").all()
+    assert study.table["message"].str.contains("FloatingPointError: path .* diverged").all()
+    assert not list(tmp_path.glob("points/*/*.json"))  # nothing recorded: a rerun tries again

@@ -11,6 +11,7 @@ from typing import Any, Sequence
 import scenes
 from results import atomic_write_text
 
+from .executor import DEFAULT_WORKERS
 from .grid import DEFAULT_MAX_POINTS
 from .sweep import print_table, run_sweep, stop_notes
 
@@ -111,7 +112,7 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     counts = study.table["status"].value_counts()
     print(f"{grid.n_points} points ({len(grid.families)} paths x {len(grid.prestretches)} pre-stretches), "
           f"{grid.solver.upper()}: " + ", ".join(f"{n} {status}" for status, n in counts.items())
-          + f"; {len(study.solved)} paths solved now in {study.wall_time:.1f} s")
+          + f"; solved {len(study.solved)} path(s) now, in {study.wall_time:.1f} s")
     for key, error in study.failed.items():
         print(f"  path {key} failed: {error} (rerun to retry it)", file=sys.stderr)
     print(f"wrote {study.files['csv']}, {study.files['parquet']} and {len(study.files) - 2} plots in {out / 'figures'}")
@@ -127,8 +128,8 @@ def cmd_bench(args: argparse.Namespace) -> int:
 def _cluster_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--scheduler", metavar="tcp://HOST:8786",
                    help="run on this Dask cluster (default: a LocalCluster on this machine)")
-    p.add_argument("--workers", type=int, default=2,
-                   help="LocalCluster worker processes (default 2; 1: run in this process)")
+    p.add_argument("--workers", type=int, default=DEFAULT_WORKERS,
+                   help=f"LocalCluster worker processes (default {DEFAULT_WORKERS}; 1: run in this process)")
 
 
 def build_parser() -> argparse.ArgumentParser:

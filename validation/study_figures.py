@@ -45,6 +45,6 @@ def _plot(table: pd.DataFrame, field: str, others: list[str], path: Path) -> Pat
         ax.grid(alpha=0.3)
     if 1 < len(groups) <= MAX_LEGEND:
         axes.flat[0].legend(fontsize=7)
-    note = f"; {len(groups)} lines, one per combination of {', '.join(others)}" if len(groups) > 1 else ""
+    note = f"; {len(groups)} lines, one per {' x '.join(others)}" if len(groups) > 1 else ""
     fig.suptitle(f"measures against {field} (open markers: path stopped{note})", fontsize=10)
     return _save(fig, path)
