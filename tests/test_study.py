@@ -42,6 +42,7 @@ def grid(max_points=10_000, **changes):
     ({"prestretch": [0.9]}, ["prestretch[0]", "below 1"]),
     ({"prestretch": []}, ["prestretch", "empty"]),
     ({"solver": "abaqus"}, ["solver"]),
+    ({"product": {"mesh.divisions": [6, 6]}}, ["'mesh.divisions': 6", "twice"]),
     ({"sweep": [1.1]}, ["'sweep'"]),
 ])
 def test_bad_grids_name_the_field(changes, words):

@@ -155,6 +155,11 @@ def grid_from_dict(data: dict[str, Any], *, name: str = "grid", base_dir: Path =
             scene_data = scene.to_dict()
             values = {f: _lookup(scene_data, f) for f in fields}
             families.append(Family(_key(solver, scene_data), solver, values, scene_data, prestretches))
+    seen: dict[str, Family] = {}
+    for family in families:
+        if family.key in seen:
+            raise GridError(f"the grid has the point {family.fields} twice: give each value once")
+        seen[family.key] = family
     return Grid(name, solver, fields, prestretches, tuple(families))
 
 
