@@ -9,6 +9,7 @@ another worker, and the task skips what is already on disk.
 
 from __future__ import annotations
 
+import asyncio
 import logging
 from contextlib import contextmanager
 from dataclasses import dataclass
@@ -18,6 +19,9 @@ from tqdm import tqdm
 
 DEFAULT_WORKERS = 2
 """Worker processes of the default LocalCluster (one thread each: the solvers are serial)."""
+
+POLL_SECONDS = 2.0
+"""How often the progress bar asks ``poll`` how far the running tasks are."""
 
 
 @dataclass(frozen=True)
@@ -53,7 +57,7 @@ def connect(scheduler: str | None = None, workers: int = DEFAULT_WORKERS) -> Ite
 def run_tasks(fn: Callable[..., Any], tasks: Sequence[Any], *, client: Any = None,
               args: tuple = (), weight: Callable[[Any], int] = lambda task: 1,
               total: int | None = None, done: int = 0, desc: str = "", unit: str = "task",
-              progress: bool = True) -> Iterator[Outcome]:
+              progress: bool = True, poll: Callable[[], int] | None = None) -> Iterator[Outcome]:
     """``fn(task, *args)`` for every task, yielded as each finishes (in any order).
 
     Parameters
@@ -64,21 +68,33 @@ def run_tasks(fn: Callable[..., Any], tasks: Sequence[Any], *, client: Any = Non
         How many progress-bar units a task counts for (e.g. its number of grid points).
     total, done
         Bar length and units already done before this call (a resumed study).
+    poll
+        Units done so far, all tasks together (e.g. records on disk): asked every
+        :data:`POLL_SECONDS` on a cluster, so the bar moves while long tasks run.
 
     A task that raises (or whose worker died more often than Dask allows) yields an
     :class:`Outcome` with ``error`` set; the other tasks go on.
     """
     total = sum(weight(t) for t in tasks) + done if total is None else total
     bar = tqdm(total=total, initial=done, desc=desc, unit=unit, disable=not progress)
-    try:
-        for outcome in _outcomes(fn, tasks, client, args):
+
+    def advance(outcome: Outcome | None) -> None:
+        if poll is not None:
+            bar.n = poll()
+            bar.refresh()
+        elif outcome is not None:
             bar.update(weight(outcome.task))
+
+    try:
+        for outcome in _outcomes(fn, tasks, client, args, lambda: advance(None)):
+            advance(outcome)
             yield outcome
     finally:
         bar.close()
 
 
-def _outcomes(fn: Callable[..., Any], tasks: Sequence[Any], client: Any, args: tuple) -> Iterator[Outcome]:
+def _outcomes(fn: Callable[..., Any], tasks: Sequence[Any], client: Any, args: tuple,
+              tick: Callable[[], None]) -> Iterator[Outcome]:
     if client is None:
         for task in tasks:
             try:
@@ -86,14 +102,21 @@ def _outcomes(fn: Callable[..., Any], tasks: Sequence[Any], client: Any, args: t
             except Exception as exc:  # one failed task is reported, not the end of the others
                 yield Outcome(task, error=f"{type(exc).__name__}: {exc}")
         return
-    from distributed import as_completed
+    from distributed import wait
 
     # pure=False: a task re-submitted after an interruption runs again (it resumes from disk)
     futures = {client.submit(fn, task, *args, pure=False): task for task in tasks}
-    for future in as_completed(futures):
-        task = futures.pop(future)
+    pending = set(futures)
+    while pending:
         try:
-            yield Outcome(task, future.result())
-        except Exception as exc:
-            yield Outcome(task, error=f"{type(exc).__name__}: {exc}")
-        future.release()
+            finished, pending = wait(pending, timeout=POLL_SECONDS, return_when="FIRST_COMPLETED")
+        except (TimeoutError, asyncio.TimeoutError):  # the same class from Python 3.11 on
+            tick()
+            continue
+        for future in finished:
+            task = futures.pop(future)
+            try:
+                yield Outcome(task, future.result())
+            except Exception as exc:
+                yield Outcome(task, error=f"{type(exc).__name__}: {exc}")
+            future.release()

@@ -168,6 +168,11 @@ def write_table(table: pd.DataFrame, out_dir: Path, name: str) -> dict[str, Path
     return {"csv": csv, "parquet": parquet}
 
 
+def _recorded(grid: Grid, out_dir: Path) -> int:
+    """How many points of ``grid`` have a record on disk (the progress of running paths)."""
+    return sum(record_path(family_dir(out_dir, f), lam).exists() for f in grid.families for lam in f.prestretches)
+
+
 def run_study(grid: Grid, out_dir: str | Path, *, scheduler: str | None = None,
               workers: int = DEFAULT_WORKERS, vtk: bool = False, plots: bool = True,
               progress: bool = True) -> Study:
@@ -196,7 +201,7 @@ def run_study(grid: Grid, out_dir: str | Path, *, scheduler: str | None = None,
         for outcome in run_tasks(solve_family, todo, client=client, args=(str(out), vtk),
                                  weight=lambda f: left[f.key], total=grid.n_points,
                                  done=grid.n_points - sum(left.values()), desc=grid.name, unit="point",
-                                 progress=progress):
+                                 progress=progress, poll=lambda: _recorded(grid, out)):
             if outcome.error is None:
                 solved.append(outcome.task.key)
             else:
