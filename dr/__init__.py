@@ -5,10 +5,10 @@
 >>> m = dr.Model(nodes); m.support([0]); ...; out = dr.relax(m)   # any structure
 """
 
-from .contact import FrameContact, MembraneFold
+from .contact import FilmCrossing, FrameContact, MembraneFold
 from .errors import DRError
 from .model import Model
 from .demes import build, solve, sweep
 from .relax import relax
 
-__all__ = ["Model", "relax", "solve", "sweep", "build", "DRError", "FrameContact", "MembraneFold"]
+__all__ = ["Model", "relax", "solve", "sweep", "build", "DRError", "FrameContact", "MembraneFold", "FilmCrossing"]

@@ -11,6 +11,8 @@ import math
 import numpy as np
 from numba import njit
 
+from results.crossing import film_crossing
+
 
 @njit(cache=True, error_model="numpy")
 def _segment_distance(p1, q1, p2, q2):
@@ -194,3 +196,24 @@ class MembraneFold:
         p = x[self.triangles[self.pairs[k, 0]]].mean(axis=0)
         return (f"membrane folded over: adjacent triangles at {np.degrees(np.arccos(max(c, -1.0))):.0f} deg "
                 f"near ({p[0]:.1f}, {p[1]:.1f}, {p[2]:.1f}) mm")
+
+
+class FilmCrossing:
+    """Flags a film that passes through itself, or a frame that passes through the film
+    (:func:`results.crossing.film_crossing`); relax gives such a state status 'film_contact'.
+
+    ``triangles`` are the film's (t, 3) node triplets, ``frame`` the frame's node chain
+    (``closed``: the last joins the first).
+    """
+
+    status = "film_contact"
+
+    def __init__(self, triangles: np.ndarray, frame: np.ndarray, closed: bool = True) -> None:
+        self.triangles = np.asarray(triangles, dtype=np.int64)
+        c = np.asarray(frame, dtype=np.int64)
+        nxt = np.roll(c, -1) if closed else c[1:]
+        self.segments = np.stack([c[: nxt.size], nxt], axis=1)
+
+    def __call__(self, x: np.ndarray) -> str | None:
+        found = film_crossing(x, self.triangles, self.segments)
+        return None if found is None else found.describe()

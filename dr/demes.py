@@ -10,8 +10,10 @@ from scipy.spatial import cKDTree
 
 from results import Result
 from scenes import Scene, SceneError
+from scenes.scene import prestretch_value
 
-from .contact import FrameContact, MembraneFold
+from .contact import FilmCrossing, FrameContact, MembraneFold
+from .kernels import place_virtual
 from .model import Model
 from .net import Net, build_net
 from .relax import relax
@@ -33,6 +35,7 @@ class DemesModel:
     final_checks: list
     mirror: np.ndarray | None  # node index of each node's mirror image (x -> -x), if symmetric
     cable_area: float  # mm^2
+    film_node: np.ndarray  # (n,) the net node each model node stands for (a cable's attachment: its frame node)
 
 
 def cable_area(scene: Scene, spacing: float) -> float:
@@ -46,9 +49,7 @@ def cable_area(scene: Scene, spacing: float) -> float:
 
 def build(scene: Scene, prestretch: float | None = None) -> DemesModel:
     """Build the DR model of ``scene`` at ``prestretch`` (default: the scene's)."""
-    lam = scene.prestretch if prestretch is None else float(prestretch)
-    if lam < 1.0:
-        raise SceneError(f"pre-stretch {lam:g} is below 1: it is a stretch ratio (1.5 = 150 %)")
+    lam = scene.prestretch if prestretch is None else prestretch_value("pre-stretch", prestretch)
     if scene.membrane.law != "linear":
         raise SceneError(
             f"membrane.law = {scene.membrane.law!r}: the DR net models the 'linear' (Hookean cable) "
@@ -135,8 +136,60 @@ def build(scene: Scene, prestretch: float | None = None) -> DemesModel:
     contact, final_checks = None, []
     if scene.dr.check_contact:
         contact = FrameContact(np.arange(nf), frame.thickness)
-        final_checks = [MembraneFold(net.triangles, net.nodes)]
-    return DemesModel(m, net, start, contact, final_checks, _mirror_map(nodes), area)
+        final_checks = [MembraneFold(net.triangles, net.nodes), FilmCrossing(net.triangles, np.arange(nf))]
+    film_node = np.arange(nodes.shape[0])
+    film_node[net.nodes.shape[0]:] = np.flatnonzero(held)[: len(extra)]
+    return DemesModel(m, net, start, contact, final_checks, _mirror_map(nodes), area, film_node)
+
+
+def paper_formula_membrane_energy(model: Model, x: np.ndarray) -> float:
+    """The membrane energy by the paper's formula, sum of N eps L / 2 over the membrane's links
+    and cables with the *current* length L (N mm; ``results.ENERGY_DEFINITION`` defines both).
+
+    The exact energy of a Hookean element is N eps L0 / 2; the formula is larger by L / L0,
+    about the pre-stretch. Reported beside the exact energy so the energies can be read
+    against the paper's."""
+    P = model.pack()
+    X = np.vstack([x, np.zeros((P.off_geo.shape[0] + P.ghost_src.shape[0], 3))])
+    place_virtual(X, P)
+    mem = ~P.link_frame
+    i, j = P.link_ij[mem].T
+    L = np.linalg.norm(X[j] - X[i], axis=1)
+    L0 = P.link_L0[mem]
+    eps = (L - L0) / L0
+    N = np.where(P.link_tension_only[mem] & (eps < 0), 0.0, P.link_EA[mem] * eps)
+    seg = np.linalg.norm(X[P.clu_seg[:, 1]] - X[P.clu_seg[:, 0]], axis=1)
+    Lc = np.bincount(P.clu_seg_cluster, weights=seg, minlength=P.clu_L0.size)
+    eps_c = (Lc - P.clu_L0) / P.clu_L0
+    Nc = np.where(P.clu_tension_only & (eps_c < 0), 0.0, P.clu_EA * eps_c)
+    return float(0.5 * (np.sum(N * eps * L) + np.sum(Nc * eps_c * Lc)))
+
+
+def slack_fractions(dm: DemesModel, res: Result) -> tuple[float, float]:
+    """Fractions of the flat membrane area whose net triangles have at least one slack edge
+    (a slack link or cable: a tension field, wrinkles) and only slack edges (fully slack).
+    An edge is slack when its tension is not above 1e-9 of the largest membrane tension."""
+    edges, tension = [], []
+    for name in ("membrane_links", "membrane_clusters"):
+        if name in res.blocks:
+            edges.append(res.blocks[name].connectivity)
+            tension.append(res.blocks[name].cell_data["tension_N"])
+    if not edges:
+        return 0.0, 0.0
+    edges, tension = np.sort(dm.film_node[np.vstack(edges)], axis=1), np.concatenate(tension)
+    n = dm.film_node.size
+    keys = edges[:, 0] * n + edges[:, 1]
+    taut = keys[tension > 1e-9 * max(float(tension.max()), 1e-300)]
+    tri = dm.net.triangles
+    t_edges = np.sort(np.stack([tri[:, [0, 1]], tri[:, [1, 2]], tri[:, [2, 0]]], axis=1), axis=2)
+    t_keys = t_edges[..., 0] * n + t_edges[..., 1]
+    membrane = np.isin(t_keys, keys)
+    slack = membrane & ~np.isin(t_keys, taut)
+    x0 = dm.net.nodes
+    area = 0.5 * np.linalg.norm(np.cross(x0[tri[:, 1]] - x0[tri[:, 0]], x0[tri[:, 2]] - x0[tri[:, 0]]), axis=1)
+    some = slack.any(axis=1)
+    full = some & (slack == membrane).all(axis=1)
+    return float(area[some].sum() / area.sum()), float(area[full].sum() / area.sum())
 
 
 def _mirror_map(nodes: np.ndarray) -> np.ndarray | None:
@@ -225,6 +278,8 @@ def solve(scene: Scene, prestretch: float | None = None, x_start: np.ndarray | N
         prestretch_steps=len(path),
         reached_prestretch=current,
     )
+    res.info["slack_area_fraction_any"], res.info["slack_area_fraction_full"] = slack_fractions(dm, res)
+    res.info["energy_membrane_paper_formula"] = paper_formula_membrane_energy(dm.model, res.x)
     if dm.mirror is not None:
         asym = asymmetry(res.x, dm.mirror)
         res.info["asymmetry_mm"] = asym
@@ -256,12 +311,14 @@ def sweep(scene: Scene, prestretches: Sequence[float], progress: bool = False,
     def flatter_than_the_lift(state: Result) -> bool:
         return bool(np.abs(state.frame_curve()[:, 2]).max() < abs(scene.perturbation.amplitude))
 
-    x_prev, flat, lam_prev = None, False, 1.0
+    x_prev, flat, lam_prev, theta = None, False, 1.0, None
     if start is not None and start.converged:
-        x_prev, lam_prev, flat = start.x, start.prestretch, flatter_than_the_lift(start)
-    for lam in sorted(float(v) for v in prestretches):
+        x_prev, lam_prev, flat, theta = start.x, start.prestretch, flatter_than_the_lift(start), start.bending_angle
+    for lam in sorted(set(float(v) for v in prestretches)):
         res = solve(scene, lam, x_start=x_prev, relift=flat, progress=progress, from_prestretch=lam_prev)
+        if theta is not None:
+            res.info["previous_bending_angle"] = theta  # the angle is continued along the sweep
         yield res
         if not res.converged:
             return
-        x_prev, lam_prev, flat = res.x, lam, flatter_than_the_lift(res)
+        x_prev, lam_prev, flat, theta = res.x, lam, flatter_than_the_lift(res), res.bending_angle

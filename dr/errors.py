@@ -1,5 +1,7 @@
 """Errors of the DR solver."""
 
+from scenes.errors import DemesError
 
-class DRError(ValueError):
+
+class DRError(DemesError):
     """Bad model input: the message names the argument and says how to fix it."""

@@ -25,6 +25,12 @@ from .kernels import Packed, gradient, stiffness
 STEPS_DONE, CONTACT, CONVERGED, NONFINITE, RUNAWAY = range(5)
 
 
+@njit(cache=True, error_model="numpy", inline="always")
+def _nanmax(a, b):
+    """max(a, b) that keeps a NaN (numba's max(a, nan) returns a, which hid NaN states)."""
+    return b if (b > a or b != b) else a
+
+
 @njit(cache=True, error_model="numpy")
 def residual(X, P, G, D, loads, free, R):
     """R = (loads - dE/dx) at free DOFs. Returns (largest element force, max |R_i|), N."""
@@ -36,7 +42,7 @@ def residual(X, P, G, D, loads, free, R):
             r = (loads[i, c] - G[i, c]) * free[i, c]
             R[i, c] = r
             r2 += r * r
-        rmax2 = max(rmax2, r2)
+        rmax2 = _nanmax(rmax2, r2)
     return fmax, math.sqrt(rmax2)
 
 
@@ -143,11 +149,11 @@ def run(X, V, R, M, Minv, S, D, free, loads, P: Packed, G, half_safety, max_step
             for c in range(3):
                 X[i, c] += V[i, c]
                 v2 += V[i, c] * V[i, c]
-            step_max2 = max(step_max2, v2)
+            step_max2 = _nanmax(step_max2, v2)
             if watched[i]:
-                watch_max2 = max(watch_max2, v2)
+                watch_max2 = _nanmax(watch_max2, v2)
             m = _mul(M, i, V[i, 0], V[i, 1], V[i, 2])
-            mom_max2 = max(mom_max2, m[0] * m[0] + m[1] * m[1] + m[2] * m[2])
+            mom_max2 = _nanmax(mom_max2, m[0] * m[0] + m[1] * m[1] + m[2] * m[2])
         steps += 1
         refresh = steps % mass_every == 0
         if refresh:
@@ -158,7 +164,7 @@ def run(X, V, R, M, Minv, S, D, free, loads, P: Packed, G, half_safety, max_step
         step_max = math.sqrt(step_max2)
         moved_list += math.sqrt(watch_max2)
         moved_check += math.sqrt(watch_max2)
-        if not (math.isfinite(rmax) and math.isfinite(step_max)):
+        if not (math.isfinite(rmax) and math.isfinite(step_max) and math.isfinite(mom_max2)):
             return NONFINITE, steps, peaks, fmax, rmax
         if step_max > runaway:
             return RUNAWAY, steps, peaks, fmax, rmax

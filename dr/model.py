@@ -149,8 +149,14 @@ class Model:
             L0 = L
         else:
             L0 = np.broadcast_to(np.asarray(rest, dtype=float), L.shape).copy()
-        if np.any(~np.isfinite(L0)) or np.any(L0 <= 0):
-            raise DRError(f"{name}: rest lengths must be positive (mm); a zero-length element has no direction")
+        bad = np.flatnonzero(~np.isfinite(L0) | (L0 <= 0))
+        if bad.size:
+            k = bad[0]
+            what = "the nodes coincide" if rest is None else f"rest length {L0[k]!r}"
+            raise DRError(
+                f"{name} between nodes {i[k]} and {j[k]}: {what}; rest lengths must be positive (mm), "
+                "a zero-length element has no direction: move the nodes apart"
+            )
         return L0
 
     def _ref_positions(self) -> np.ndarray:
@@ -238,6 +244,15 @@ class Model:
             raise DRError("beam chain visits a node twice; for a loop give each node once and closed=True")
         ei = _positive("beam EI (N mm^2)", EI)
         n_edges = c.size if closed else c.size - 1
+        nxt = np.roll(c, -1)[:n_edges]
+        self._rest_lengths("beam edge", c[:n_edges], nxt, None)
+        ends = (np.roll(c, 1), np.roll(c, -1)) if closed else (c[:-2], c[2:])
+        x = self._ref_positions()
+        folded = np.flatnonzero(np.linalg.norm(x[ends[1]] - x[ends[0]], axis=1) == 0.0)
+        if folded.size:
+            k = folded[0]
+            raise DRError(f"beam chain folds back on itself: nodes {ends[0][k]} and {ends[1][k]} on either side of "
+                          "a node coincide (no curvature is defined there); move them apart")
         orient = None
         if orientation is not None:
             orient = self._indices("beam orientation", orientation)
@@ -251,8 +266,7 @@ class Model:
         ea = None if EA is None else _positive("beam EA (N)", EA)
         self._beams.append(_Beam(c, ei, ea, EI_strong, GJ, orient, closed))
         if ea is not None:
-            nxt = np.roll(c, -1) if closed else c[1:]
-            self.add_link(c[: n_edges], nxt[:n_edges], ea, role="frame")
+            self.add_link(c[:n_edges], nxt, ea, role="frame")
 
     def scale_membrane_rest_lengths(self, factor: float) -> None:
         """Multiply the rest lengths of clusters and membrane links by ``factor`` (> 0): how a

@@ -13,6 +13,7 @@ from results import CellBlock, Result
 from . import integrator as itg
 from .contact import FrameContact
 from .errors import DRError
+from .finite import degenerate_elements, where_not_finite
 from .kernels import EIW, KN0, KW0, LBAR, TAU0, Packed, energy, place_virtual, stiffness, strip_measures
 from .model import Model
 
@@ -20,6 +21,13 @@ Check = Callable[[np.ndarray], "str | None"]
 
 FOLD_PATIENCE = 10
 """Chunks in a row with a folded membrane (``final_checks``) after which an unconverged run stops."""
+
+ENERGY_RISE = 0.5
+"""A run whose potential energy (strain energy less the work of the loads) rose above its
+starting value by this fraction of the larger of the two is diverging: kinetic damping only
+ever takes energy out, so such a rise is the time step pumping it in (masses below the
+stability bound). The kinetic energy is left out: with masses that follow the stiffness it is
+not conserved, and a stable loaded run measured 1.6x its potential drop in it."""
 
 MASS_EVERY = 100
 """Steps between refreshes of the stiffness bounds behind the masses (tensor masses also
@@ -62,9 +70,10 @@ def relax(
         touch (checked inside the time loop, often enough that nothing passes through).
     final_checks
         Callables (e.g. :class:`dr.MembraneFold`) for states that must not be accepted: a
-        converged state they flag gets status 'membrane_fold', and so does an unconverged run
-        they flag at FOLD_PATIENCE chunk ends in a row (a clustered net may fold for a moment on
-        its way and unfold again, so a single sighting does not stop it).
+        converged state they flag gets the check's ``status`` attribute (default 'membrane_fold';
+        :class:`dr.FilmCrossing`: 'film_contact'), and so does an unconverged run they flag at
+        FOLD_PATIENCE chunk ends in a row (a clustered net may fold for a moment on its way and
+        unfold again, so a single sighting does not stop it).
     masses
         'tensor': direction-dependent masses from each link's stiffness, rebuilt every step
         (a frame node is heavy along the frame only); 'scalar': Barnes' masses f dt^2/2 S.
@@ -80,8 +89,17 @@ def relax(
     -------
     Result
         The equilibrium (``converged``), or the last state reached with ``status``
-        'max_iterations', 'diverged' (the last finite state), 'self_contact' or
-        'membrane_fold', and a message with the residual and iteration count.
+        'max_iterations', 'diverged' (energy rising or a node jumping: an unstable time step;
+        checked before any contact or fold is reported), 'not_finite' (a NaN/inf position,
+        force or energy; the last finite state is returned and the message names the node and
+        the degenerate element), 'self_contact' or 'membrane_fold', and a message with the
+        residual and iteration count.
+
+    Raises
+    ------
+    DRError
+        Bad settings, or start positions that give no finite force (coincident nodes of a
+        link, cable or beam, a strip orientation node on its edge's line: named).
     """
     if not (np.isfinite(tol) and tol > 0):
         raise DRError(f"tol = {tol!r} must be a positive number (relative residual, e.g. 1e-6)")
@@ -115,7 +133,16 @@ def relax(
     M, Minv = np.zeros((n, 6)), np.zeros((n, 6))
     loads = model.loads
     R = np.zeros((n, 3))
+    positions = "start" if x_start is not None else "reference"
+    degenerate = degenerate_elements(X, P)
+    if degenerate:
+        raise DRError(f"the {positions} positions are degenerate: {'; '.join(degenerate)}; move the nodes apart")
     _update_masses(X, P, G, S, D, loads, free, R, mass_safety, M, Minv, tensor)
+    if not (np.isfinite(R).all() and np.isfinite(Minv).all()):
+        raise DRError(
+            f"the {positions} positions give a non-finite force or mass, first at {where_not_finite(X, R, P)}; "
+            "look for coincident nodes or stiffnesses so large that they overflow"
+        )
     runaway = max(float(np.linalg.norm(np.ptp(X[:n], axis=0))), 1e-9)
     # a residual below the round-off of the stiffest link's force cannot be resolved
     # (positions carry ~2 eps |x|): the force scale is at least 10x that noise over tol
@@ -137,6 +164,18 @@ def relax(
     if tensor:
         itg.build_masses(D, S, free, 0.5 * mass_safety, M, Minv)
 
+    e_start = _potential_energy(X, P, loads)
+
+    def diverging() -> str | None:
+        """Why the run is unstable (energy rising), or None."""
+        e_now = _potential_energy(X, P, loads)
+        rise = e_now - e_start
+        if not np.isfinite(rise) or rise <= ENERGY_RISE * max(abs(e_start), abs(e_now), 1e-300):
+            return None  # a NaN energy is named 'not_finite' when the result is made
+        return (f"the energy rose from {e_start:.4g} to {e_now:.4g} N mm, which kinetic damping cannot do: "
+                f"the time step is unstable with mass_safety = {mass_safety:g}; raise it (f >= 1 is "
+                "stable, 2 is safe)")
+
     it, peaks, folded_chunks = 1, 0, 0
     history: list[tuple[int, float]] = []
     status, message = "max_iterations", ""
@@ -145,41 +184,52 @@ def relax(
     try:
         while True:
             steps_left = int(max_iterations) - it
-            code, steps, pk, fmax, rmax = itg.run(
-                X, V, R, M, Minv, S, D, free, loads, P, G, 0.5 * mass_safety,
-                min(chunk, steps_left), segments, closed, distance, watched, tol, force_floor,
-                runaway, MASS_EVERY,
-            )
+            try:
+                code, steps, pk, fmax, rmax = itg.run(
+                    X, V, R, M, Minv, S, D, free, loads, P, G, 0.5 * mass_safety,
+                    min(chunk, steps_left), segments, closed, distance, watched, tol, force_floor,
+                    runaway, MASS_EVERY,
+                )
+            except np.linalg.LinAlgError:  # a NaN reached the strip's mass bound (an eigensolver)
+                code, steps, pk, fmax, rmax = itg.NONFINITE, 0, 0, np.nan, np.nan
             it += steps
             peaks += pk
             bar.update(steps)
             rel = rmax / max(fmax, force_floor)
             history.append((it, rel))
             bar.set_postfix_str(f"residual {rel:.2e}")
-            if code in (itg.NONFINITE, itg.RUNAWAY):
+            last_good = history[-2][0] if len(history) > 1 else 1
+            if code == itg.NONFINITE:
+                where = where_not_finite(X, R, P, good)
+                X[:] = good
+                status = "not_finite"
+                message = (f"a value became NaN/inf at iteration {it}, first at {where}; the last finite "
+                           f"state (iteration {last_good}) is returned")
+                break
+            unstable = (f"a node jumped more than the model size ({runaway:.3g} mm) in one step: the time "
+                        f"step is unstable with mass_safety = {mass_safety:g}; raise it (2 is safe)"
+                        if code == itg.RUNAWAY else diverging())
+            if unstable:
                 X[:] = good
                 status = "diverged"
-                why = "a value became NaN/inf" if code == itg.NONFINITE else f"a node jumped more than the model size ({runaway:.3g} mm) in one step"
-                message = (
-                    f"DR diverged at iteration {it} ({why}); the last finite state (iteration "
-                    f"{history[-2][0] if len(history) > 1 else 1}) is returned. The time step is "
-                    f"unstable with mass_safety = {mass_safety:g}: raise it (2 is safe)"
-                )
+                message = (f"DR diverged at iteration {it} ({unstable}); the state of iteration "
+                           f"{last_good} is returned")
                 break
             if code == itg.CONTACT:
                 status, message = "self_contact", f"stopped at iteration {it}: {contact(X[:n])}"
                 break
-            hit = next((msg for msg in (c(X[:n]) for c in final_checks) if msg), None)
+            check, hit = next(((c, msg) for c, msg in ((c, c(X[:n])) for c in final_checks) if msg), (None, None))
             folded_chunks = folded_chunks + 1 if hit else 0
             if code == itg.CONVERGED:
                 if hit:
-                    status, message = "membrane_fold", f"converged in {it} iterations to a state with {hit}"
+                    status = getattr(check, "status", "membrane_fold")
+                    message = f"converged in {it} iterations to a state with {hit}"
                 else:
                     status = "converged"
                     message = f"converged in {it} iterations ({peaks} kinetic-energy peaks), residual {rel:.2e}"
                 break
             if folded_chunks >= FOLD_PATIENCE:
-                status = "membrane_fold"
+                status = getattr(check, "status", "membrane_fold")
                 message = (
                     f"stopped at iteration {it}, not converged (relative residual {rel:.2e}): {hit}, "
                     f"for the last {folded_chunks * chunk} steps; a net folded over has no equilibrium to reach"
@@ -195,11 +245,20 @@ def relax(
     finally:
         bar.close()
     residual_now = history[-1][1]
-    return make_result(
+    res = make_result(
         model, P, X, status == "converged", status, message, it, residual_now,
         np.array(history), time.perf_counter() - t0,
         {"ke_peaks": peaks, "mass_safety": mass_safety, "masses": masses},
     )
+    if not all(np.isfinite(v) for v in res.energy.values()) and status != "not_finite":
+        res.converged, res.status = False, "not_finite"
+        res.message = f"the energy is not finite ({res.message})"
+    return res
+
+
+def _potential_energy(X: np.ndarray, P: Packed, loads: np.ndarray) -> float:
+    """Strain energy less the loads' work from the origin, N mm."""
+    return float(sum(energy(X, P))) - float(np.sum(loads * X[: P.n]))
 
 
 def _update_masses(X, P, G, S, D, loads, free, R, safety, M, Minv, tensor) -> None:

@@ -16,6 +16,7 @@ states, a stop at self-contact, and mesh sequencing for refined levels.
 """
 
 from .convergence import ConvergenceStudy, Estimate, convergence_study, richardson
+from .errors import FEMError
 from .solve import solve, sweep
 
-__all__ = ["solve", "sweep", "convergence_study", "richardson", "ConvergenceStudy", "Estimate"]
+__all__ = ["solve", "sweep", "convergence_study", "richardson", "ConvergenceStudy", "Estimate", "FEMError"]

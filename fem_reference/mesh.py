@@ -19,10 +19,14 @@ from dataclasses import dataclass, replace
 import numpy as np
 import scipy.sparse as sp
 import triangle as tr
+from matplotlib.path import Path as MplPath
 from matplotlib.tri import Triangulation
+from scipy.spatial import cKDTree
 from skfem import Basis, ElementTriP1, ElementTriP2, ElementVector, MeshTri1, MeshTri2
 
 from scenes import Scene, SceneError
+
+from .errors import FEMError
 
 ELEMENTS = {"P1": ElementTriP1, "P2": ElementTriP2}
 
@@ -75,7 +79,11 @@ class MembraneMesh:
         """Sparse (m, nn) matrices of the shape-function values (and, with ``gradients``, their
         x and y derivatives) at reference points (m, 2) mm, optionally in given cells."""
         if cells is None:
-            cells = self.linear.element_finder()(points[:, 0], points[:, 1])
+            try:
+                cells = self.linear.element_finder()(points[:, 0], points[:, 1])
+            except ValueError:  # skfem: 'Point is outside of the mesh'
+                raise FEMError("a point of the strip's inner edge falls outside the film mesh: a corner is "
+                               "too sharp for the mesh; raise frame.corner_radius or mesh.divisions") from None
         scalar = Basis(self.mesh, ELEMENTS[self.element]())
         local = scalar.mapping.invF(points.T[:, :, None], tind=cells)
         fields = [scalar.elem.gbasis(scalar.mapping, local, k, tind=cells)[0]
@@ -139,6 +147,29 @@ def _boundary_arc_lengths(landmarks: np.ndarray, start: float, stop: float, h: f
     return np.concatenate(parts)
 
 
+def _check_plane_graph(points: np.ndarray, loop: int, segments: np.ndarray) -> None:
+    """Refuse what the mesh generator cannot take (it may crash on it): interior points outside
+    the outline, or segments that cross or touch other than at a shared end. Where the frame
+    is narrower than the strip, the strip's inner edge crosses itself or the outline."""
+    inside = MplPath(points[:loop]).contains_points(points[loop:])
+    a, b = points[segments[:, 0]], points[segments[:, 1]]
+    reach = float(np.linalg.norm(b - a, axis=1).max())
+    pairs = cKDTree(0.5 * (a + b)).query_pairs(reach, output_type="ndarray")
+    i, j = pairs[:, 0], pairs[:, 1]
+    apart = ~(segments[i][:, :, None] == segments[j][:, None, :]).any(axis=(1, 2))
+    i, j = i[apart], j[apart]
+
+    def side(p, q, r):  # sign of the turn p -> q -> r
+        return np.sign((q[:, 0] - p[:, 0]) * (r[:, 1] - p[:, 1]) - (q[:, 1] - p[:, 1]) * (r[:, 0] - p[:, 0]))
+
+    cross = ((side(a[i], b[i], a[j]) * side(a[i], b[i], b[j]) <= 0)
+             & (side(a[j], b[j], a[i]) * side(a[j], b[j], b[i]) <= 0))
+    if not inside.all() or cross.any():
+        raise FEMError("the strip's inner edge (frame.width / 2 inside the outline) leaves the outline or "
+                       "crosses itself: the frame is too narrow or too sharply bent for its strip; widen the "
+                       "outline, raise frame.corner_radius or lower frame.width")
+
+
 def _triangulate(points: np.ndarray, loop: int, extra_segments: np.ndarray, h: float
                  ) -> tuple[np.ndarray, np.ndarray]:
     """Triangles of the closed polygon ``points[:loop]`` with further points and interior
@@ -146,10 +177,12 @@ def _triangulate(points: np.ndarray, loop: int, extra_segments: np.ndarray, h: f
     segment."""
     segments = np.vstack([np.column_stack([np.arange(loop), np.roll(np.arange(loop), -1)]),
                           extra_segments]).astype(np.int32)
+    _check_plane_graph(points, loop, segments)
     area = np.sqrt(3.0) / 4.0 * h * h
     out = tr.triangulate({"vertices": points, "segments": segments}, f"pq30a{area:.10f}YY")
     if not np.allclose(out["vertices"][: len(points)], points):
-        raise RuntimeError("triangle changed the boundary points; the outline is too coarse")
+        raise FEMError("the mesh generator moved the outline's points: the outline is too coarse for "
+                       "its corners; raise mesh.divisions or frame.corner_radius")
     return out["vertices"], out["triangles"]
 
 
@@ -274,7 +307,9 @@ def build_mesh(scene: Scene, refinement: int = 0, element: str = "P1") -> Membra
     linear = mesh
     b_vert = np.flatnonzero(~np.isnan(s_of))
     if not np.array_equal(np.sort(b_vert), np.sort(mesh.boundary_nodes())):
-        raise RuntimeError("mesh boundary does not match the outline nodes")
+        raise FEMError("the film mesh's boundary does not follow the outline (a corner too tight for the "
+                       "mesh spacing, or the strip's inner edge crossing itself); raise frame.corner_radius "
+                       "or mesh.divisions")
     nodes_s = s_of[b_vert]
     nodes_inner = inner_of[b_vert]
     nv = mesh.p.shape[1]

@@ -11,6 +11,7 @@ shift below it.
 
 from __future__ import annotations
 
+import time
 from dataclasses import dataclass, field
 from typing import Callable, Protocol
 
@@ -142,13 +143,14 @@ class NewtonResult:
 
     y: np.ndarray
     converged: bool
-    status: str  # 'converged', 'saddle', 'max_iterations', 'line_search', 'diverged'
+    status: str  # 'converged', 'saddle', 'max_iterations', 'line_search', 'diverged', 'not_finite', 'time_limit'
     iterations: int
     residual: float
     history: list[float] = field(default_factory=list)
     energy: float = float("nan")
     negative_pivots: int = -1  # of the tangent at the returned point (-1: not factorised)
     shifted_steps: int = 0
+    bad_node: int = -1  # 'not_finite': the first node with a non-finite force or position
 
 
 def residual_of(ev: Evaluation, free: np.ndarray) -> float:
@@ -158,12 +160,13 @@ def residual_of(ev: Evaluation, free: np.ndarray) -> float:
 
 
 def newton(problem: Problem, y0: np.ndarray, tol: float = 1e-10, max_iterations: int = 40,
-           saddle: float = 0.0) -> NewtonResult:
+           saddle: float = 0.0, deadline: float | None = None) -> NewtonResult:
     """Minimise ``problem``'s energy from ``y0`` over its free DOFs.
 
     Converged when the largest free force component is below ``tol`` times the force scale (or
     below 1000 ``tol`` once the step is at round-off, 1e-12 of the model size). With ``saddle`` > 0 it stops (status 'saddle') when the residual is below ``saddle`` while
-    the tangent is indefinite, so that the caller can step off along the unstable mode.
+    the tangent is indefinite, so that the caller can step off along the unstable mode. Past
+    ``deadline`` (a ``time.perf_counter()`` value) it stops with status 'time_limit'.
     """
     free = problem.free
     Mff = problem.mass[free][:, free].tocsc()
@@ -180,7 +183,10 @@ def newton(problem: Problem, y0: np.ndarray, tol: float = 1e-10, max_iterations:
         r = residual_of(ev, free)
         history.append(r)
         if not np.isfinite(r) or not np.isfinite(ev.total):
-            return NewtonResult(y, False, "diverged", it, r, history, ev.total, -1, shifted)
+            nodes = np.flatnonzero(~np.isfinite(ev.gradient.reshape(-1, 3)).all(axis=1)
+                                   | ~np.isfinite(y.reshape(-1, 3)).all(axis=1))
+            return NewtonResult(y, False, "not_finite", it, r, history, ev.total, -1, shifted,
+                                int(nodes[0]) if nodes.size else -1)
         Kff = ev.tangent[free][:, free].tocsc()
         if start_shift is None:
             start_shift = shift_scale(Kff, Mff)
@@ -192,6 +198,8 @@ def newton(problem: Problem, y0: np.ndarray, tol: float = 1e-10, max_iterations:
             return NewtonResult(y, True, "converged", it, r, history, ev.total, neg, shifted)
         if it == max_iterations:
             break
+        if deadline is not None and time.perf_counter() > deadline:
+            return NewtonResult(y, False, "time_limit", it, r, history, ev.total, -1, shifted)
         try:
             mu, f, negative = positive_shift(Kff, Mff, start_shift)
         except NotFactorizable:

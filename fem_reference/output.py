@@ -6,6 +6,7 @@ import numpy as np
 
 from results import CellBlock
 
+from .membrane import LATTICE_ANGLES_DEG
 from .model import DemesProblem
 
 
@@ -37,13 +38,45 @@ def compressed_fraction(problem: DemesProblem, y: np.ndarray) -> float:
     return float((weights * bad).sum() / weights.sum())
 
 
-def slack_fraction(problem: DemesProblem, y: np.ndarray) -> float:
-    """Fraction of the flat membrane area where both principal tensions vanish (slack links)."""
-    tensions, _ = problem.membrane.principal_tensions(problem.film_positions(y), problem.lam)
-    scale = max(float(np.abs(tensions).max()), 1e-300)
-    slack = tensions[0] <= 1e-9 * scale
-    weights = problem.membrane.basis.dx
-    return float((weights * slack).sum() / weights.sum())
+def _family_strains(problem: DemesProblem, y: np.ndarray) -> np.ndarray:
+    """Strain from the rest state of the link-net law's three lattice families, (3, nel, nqp)."""
+    F = problem.membrane.deformation_gradient(problem.film_positions(y))  # (3, 2, nel, nqp)
+    return np.array([np.linalg.norm(np.einsum("ij...,j->i...", F, [np.cos(a), np.sin(a)]), axis=0) * problem.lam - 1.0
+                     for a in np.radians(LATTICE_ANGLES_DEG)])
+
+
+def paper_formula_membrane_energy(problem: DemesProblem, y: np.ndarray) -> float:
+    """The link-net film's energy by the paper's formula N eps L / 2 with the current length L,
+    N mm: the exact density E h / (2 lambda) sum eps_k^2 times (1 + eps_k) per family (NaN for
+    the neo-Hookean film, which has no links)."""
+    m = problem.membrane
+    if m.law != "linear":
+        return float("nan")
+    eps = _family_strains(problem, y)
+    if m.tension_only:
+        eps = np.maximum(eps, 0.0)
+    density = m.E * m.h / (2.0 * problem.lam) * np.sum(eps**2 * (1.0 + eps), axis=0)
+    return float((m.basis.dx * density).sum())
+
+
+def slack_fractions(problem: DemesProblem, y: np.ndarray) -> tuple[float, float]:
+    """Fractions of the flat membrane area (quadrature-weighted) that are partly slack (at least
+    one slack link family: a tension field, wrinkles) and fully slack (every family).
+
+    The link-net law's families are its three lattice directions, slack where their strain
+    from the rest state is not positive; for the neo-Hookean film they are the principal
+    directions, slack where the principal tension is not above 1e-9 of the largest.
+    """
+    membrane = problem.membrane
+    if membrane.law == "linear":
+        slack = _family_strains(problem, y) <= 0.0
+    else:
+        tensions, _ = membrane.principal_tensions(problem.film_positions(y), problem.lam)
+        slack = tensions <= 1e-9 * max(float(np.abs(tensions).max()), 1e-300)
+    weights = membrane.basis.dx
+    total = weights.sum()
+    return (float((weights * slack.any(axis=0)).sum() / total),
+            float((weights * slack.all(axis=0)).sum() / total))
 
 
 def blocks(problem: DemesProblem, y: np.ndarray) -> dict[str, CellBlock]:

@@ -14,7 +14,6 @@ its states (mesh sequencing), falling back to their own continuation.
 
 from __future__ import annotations
 
-import math
 import time
 from dataclasses import dataclass, field
 from typing import Iterator, Sequence
@@ -22,12 +21,14 @@ from typing import Iterator, Sequence
 import numpy as np
 
 from results import ENERGY_KEYS, Result
+from results.crossing import Crossing, film_crossing
 from scenes import Scene, SceneError
+from scenes.scene import integer_at_least, prestretch_list
 
 from .contact import Contact, frame_contact, membrane_fold
 from .model import DemesProblem
 from .newton import NewtonResult, NotFactorizable, lowest_mode, newton
-from .output import blocks, compressed_fraction, slack_fraction
+from .output import blocks, compressed_fraction, paper_formula_membrane_energy, slack_fractions
 
 FIRST_STEP = 0.01
 MAX_STEP = 0.05
@@ -140,7 +141,8 @@ class Continuation:
         steps and the lowest eigenvalue checked (NaN when the factor showed none negative)."""
         self.problem.lam = lam
         its = max_iterations or MAX_NEWTON
-        nr = newton(self.problem, start, tol=TOLERANCE, max_iterations=its, saddle=SADDLE)
+        nr = newton(self.problem, start, tol=TOLERANCE, max_iterations=its, saddle=SADDLE,
+                    deadline=self.deadline)
         pushes, omega = 0, float("nan")
         while (nr.converged and nr.negative_pivots != 0) or nr.status == "saddle":
             try:
@@ -162,19 +164,25 @@ class Continuation:
                 nr.status, nr.converged = "unstable", False
                 break
             history = nr.history
-            nr = newton(self.problem, pushed, tol=TOLERANCE, max_iterations=its, saddle=SADDLE)
+            nr = newton(self.problem, pushed, tol=TOLERANCE, max_iterations=its, saddle=SADDLE,
+                        deadline=self.deadline)
             nr.history = history + nr.history
             pushes += 1
         return nr, pushes, omega
 
-    def contact(self, y: np.ndarray) -> Contact | None:
-        """Frame self-contact or a membrane fold at positions y, if any."""
+    def contact(self, y: np.ndarray) -> Contact | Crossing | None:
+        """Frame self-contact, the film (or the frame) passing through the film, or a membrane
+        fold at positions y, if any."""
         pb = self.problem
         x = y.reshape(-1, 3)
         mesh = pb.mesh
         found = frame_contact(x[mesh.frame_nodes], pb.held_chain, self.scene.frame.thickness)
         if found is not None:
             return found
+        frame = mesh.frame_nodes
+        crossing = film_crossing(x, mesh.cells[:, :3], np.stack([frame, np.roll(frame, -1)], axis=1))
+        if crossing is not None:
+            return crossing
         # a slack film has no stiffness and its wrinkles are arbitrary: only taut folds count;
         # and the band bonded to the strip is left out: the film leaves the strip's inner edge
         # at an angle (the strip's torque acts there), which is not a fold of the free film
@@ -204,6 +212,12 @@ class Continuation:
         self.problem.lam = self.lam
         return self.lam, bad
 
+    def _out_of_time(self, records: list[StepRecord]) -> Outcome:
+        self.problem.lam = self.lam
+        return Outcome(self.y, self.lam, "time_limit",
+                       f"the time limit (fem.time_limit = {self.scene.fem.time_limit:g} s) was spent "
+                       f"at lambda = {self.lam:.4f} with a step of {self.step:.2g}", records)
+
     def advance(self, target: float, guess: np.ndarray | None = None) -> Outcome:
         """Follow the path up to ``target``; stop early on failure or contact.
 
@@ -218,10 +232,7 @@ class Continuation:
                 self.previous, self.lam, self.y = (self.lam, self.y), target, nr.y
         while self.lam < target - 1e-12:
             if self.deadline is not None and time.perf_counter() > self.deadline:
-                self.problem.lam = self.lam
-                return Outcome(self.y, self.lam, "time_limit",
-                               f"the time limit (fem.time_limit = {self.scene.fem.time_limit:g} s) was spent "
-                               f"at lambda = {self.lam:.4f} with a step of {self.step:.2g}", records)
+                return self._out_of_time(records)
             lam = min(self.lam + self.step, target)
             if target - lam < 0.25 * self.step:  # do not leave a sliver before the target
                 lam = target
@@ -237,6 +248,17 @@ class Continuation:
                 if nr.converged:
                     self.snaps.append((self.lam, lam))
             records.append(StepRecord(lam, nr.iterations, nr.history, pushes))
+            if nr.status == "time_limit":
+                return self._out_of_time(records)
+            if nr.status == "not_finite":
+                # a NaN/inf is a degenerate model or state, not a step too long: stop and say where
+                self.problem.lam = self.lam
+                cells = np.flatnonzero((self.problem.mesh.cells == nr.bad_node).any(axis=1))
+                where = (f"node {nr.bad_node} (elements {', '.join(map(str, cells[:4]))})"
+                         if nr.bad_node >= 0 else "the energy")
+                return Outcome(self.y, self.lam, "not_finite",
+                               f"a non-finite force or energy at lambda = {lam:.4f}, first at {where}; "
+                               f"the last finite state (lambda = {self.lam:.4f}) is kept", records)
             if not nr.converged:
                 self.step *= 0.5
                 if self.step >= MIN_STEP:
@@ -250,7 +272,7 @@ class Continuation:
             found = self.contact(nr.y)
             if found is not None:
                 free, bad = self._bisect_contact(lam)
-                return Outcome(self.y, self.lam, "self_contact",
+                return Outcome(self.y, self.lam, "film_contact" if isinstance(found, Crossing) else "self_contact",
                                f"{found.describe()} at lambda = {lam:.4f}; first contact between "
                                f"lambda = {free:.4f} and {bad:.4f}", records, (free, bad))
             self.previous, self.lam, self.y = (self.lam, self.y), lam, nr.y
@@ -266,14 +288,9 @@ class Continuation:
 
 
 def _check_prestretches(prestretches: Sequence[float]) -> list[float]:
-    try:
-        values = [float(v) for v in prestretches]
-    except (TypeError, ValueError):
-        raise SceneError("prestretches must be a list of pre-stretch ratios, e.g. [1.1, 1.3, 1.5]") from None
-    for v in values:
-        if not math.isfinite(v) or v < 1.0:
-            raise SceneError(f"pre-stretch {v!r} must be a finite ratio >= 1 (1.0 = none, 1.5 = 150 %)")
-    return sorted(values)
+    if isinstance(prestretches, np.ndarray):
+        prestretches = prestretches.tolist()
+    return sorted(set(prestretch_list("prestretches", prestretches)))
 
 
 def _newton_tails(records: list[StepRecord]) -> list[list[float]]:
@@ -301,10 +318,13 @@ def make_result(problem: DemesProblem, out: Outcome, requested: float, wall: flo
     stable = bool(omega > -_neutral_tolerance(scene)) if np.isfinite(omega) else lam == 1.0
     iterations = sum(r.iterations for r in out.records)
     compressed = compressed_fraction(problem, out.y) if lam > 1.0 else 0.0
+    slack = slack_fractions(problem, out.y) if lam > 1.0 else (0.0, 0.0)
     status, converged = out.status, out.converged
     what = {"converged": "converged", "self_contact": "stopped at self-contact",
+            "film_contact": "stopped where the film passes through itself or the frame",
             "unstable": "found no stable state", "max_iterations": "did not converge",
-            "diverged": "diverged", "time_limit": "stopped at the time limit"}[status]
+            "diverged": "diverged", "time_limit": "stopped at the time limit",
+            "not_finite": "stopped at a non-finite value"}[status]
     message = (f"lambda = {lam:.3f}: {what}; relative residual {residual:.1e} after {iterations} "
                f"Newton iterations in {len(out.records)} continuation steps")
     if out.detail:
@@ -339,7 +359,9 @@ def make_result(problem: DemesProblem, out: Outcome, requested: float, wall: flo
         "film_offset_mm": problem.offset,
         "director_lever_mm": 0.5 * scene.frame.width,
         "compressed_area_fraction": compressed,
-        "slack_area_fraction": slack_fraction(problem, out.y) if lam > 1.0 else 0.0,
+        "slack_area_fraction_any": slack[0],
+        "slack_area_fraction_full": slack[1],
+        "energy_membrane_paper_formula": paper_formula_membrane_energy(problem, out.y),
         "requested_prestretch": requested,
     }
     if out.first_contact is not None:
@@ -371,7 +393,7 @@ def make_result(problem: DemesProblem, out: Outcome, requested: float, wall: flo
 def _refinement(scene: Scene, refinement: int | None) -> int:
     if not isinstance(scene, Scene):
         raise SceneError(f"expected a scenes.Scene, got {type(scene).__name__}; use scenes.load(...)")
-    return scene.fem.refinement if refinement is None else refinement
+    return scene.fem.refinement if refinement is None else integer_at_least(0, 5)("fem.refinement", refinement)
 
 
 def sweep(scene: Scene, prestretches: Sequence[float], refinement: int | None = None
@@ -405,7 +427,7 @@ def sweep(scene: Scene, prestretches: Sequence[float], refinement: int | None = 
     # the fine one (slender frames make Newton's region of fast convergence shrink with h)
     coarse = DemesProblem(scene, 0, scene.fem.element) if level > 0 else None
     guide = Continuation(coarse, deadline) if coarse is not None else None
-    steps = 0
+    steps, theta = 0, None
     for lam in lams:
         t0 = time.perf_counter()
         snapped = len(path.snaps)
@@ -421,6 +443,9 @@ def sweep(scene: Scene, prestretches: Sequence[float], refinement: int | None = 
         steps += len(out.records)
         res = make_result(problem, out, lam, 0.0, steps)
         res.wall_time = time.perf_counter() - t0
+        if theta is not None:
+            res.info["previous_bending_angle"] = theta  # the angle is continued along the sweep
+        theta = res.bending_angle
         yield res
         if not out.converged:
             return

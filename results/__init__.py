@@ -5,13 +5,14 @@ through the measures defined once in :mod:`results.metrics`.
 """
 
 from .atomic import atomic_write, atomic_write_text
-from .state import ENERGY_KEYS, SUMMARY_COLUMNS, Result
+from .state import ENERGY_DEFINITION, ENERGY_KEYS, SUMMARY_COLUMNS, Result
 from .store import load_result, save_result
 from .vtk import CellBlock, write_pvd, write_vtu
 
 __all__ = [
     "Result",
     "ENERGY_KEYS",
+    "ENERGY_DEFINITION",
     "SUMMARY_COLUMNS",
     "CellBlock",
     "write_vtu",

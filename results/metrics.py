@@ -27,18 +27,38 @@ def frame_at(x: np.ndarray, s: np.ndarray, length: float, s_query: np.ndarray) -
     return spline(q)
 
 
-def bending_angle(apex: np.ndarray, base_mid: np.ndarray) -> float:
-    """Angle (deg) of the line base midpoint -> apex above the flat plane, in the symmetry plane.
+def bending_angle(x: np.ndarray, s: np.ndarray, length: float, s_apex: float, size: float,
+                  samples: int = 256) -> float:
+    """Angle (deg) of the line base midpoint -> apex above the flat plane, in the symmetry plane,
+    counted continuously from the flat state.
 
     The symmetry plane is x = 0 (the base lies on the x axis, the flat frame in z = 0, the apex
-    at y > 0), so the angle is atan2(dz, dy): 0 when flat, 90 when the apex is straight above
-    the base, above 90 once it curls past vertical. A DEMES curls up past vertical (and a
-    curled frame past 180 deg, apex below the base plane behind it) or dips a little down,
-    so angles are given in [-90, 270) deg rather than wrapping at 180.
+    at y > 0), so the angle is atan2(dz, dy) modulo 360: 0 when flat, 90 when the apex is
+    straight above the base, 180 curled over flat behind it, 281 for a curl past that (not
+    -79). Which turn is meant is read off the state itself: the midpoint of the two sides at
+    equal arc length from the base midpoint runs from the base to the apex, its direction
+    turns continuously from the flat base (unwrapped along it), and the angle is the turn of
+    atan2 nearest the mean of that direction (a chord is a mean of the directions along it).
+    Steps shorter than a tenth of the median step (along the held base the midline stands
+    still, up to the spline's wiggle, and it slows to a stop at the apex) are skipped.
     """
-    d = np.asarray(apex, float) - np.asarray(base_mid, float)
-    theta = float(np.degrees(np.arctan2(d[2], d[1])))
-    return theta + 360.0 if theta < -90.0 else theta
+    t = np.linspace(0.0, s_apex, samples)
+    mid = 0.5 * (frame_at(x, s, length, t) + frame_at(x, s, length, -t))
+    chord = mid[-1] - mid[0]
+    theta = float(np.degrees(np.arctan2(chord[2], chord[1])))
+    step = np.diff(mid[:, 1:], axis=0)
+    w = np.hypot(step[:, 0], step[:, 1])
+    keep = (w > 0.1 * np.median(w)) & (w > 1e-9 * size)
+    if not keep.any():
+        return theta
+    psi = np.degrees(np.unwrap(np.arctan2(step[keep, 1], step[keep, 0])))
+    return nearest_turn(theta, float(np.average(psi, weights=w[keep])))
+
+
+def nearest_turn(angle: float, previous: float) -> float:
+    """``angle`` (deg) plus the whole turns that bring it nearest ``previous``: a sweep's next
+    state is read as the continuation of the one before."""
+    return float(angle + 360.0 * np.round((previous - angle) / 360.0))
 
 
 def shape_error(

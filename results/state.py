@@ -12,7 +12,19 @@ from . import metrics
 from .vtk import CellBlock, write_vtu
 
 ENERGY_KEYS = ("membrane", "frame_bending", "frame_torsion", "frame_axial", "total")
-"""Names of the energy split (N mm), the same for every solver."""
+"""Names of the energy split (N mm), the same for every solver (see ENERGY_DEFINITION)."""
+
+ENERGY_DEFINITION = (
+    "Energy: the exact elastic energy of the model, in N mm. Each membrane link or cable and each "
+    "frame axial link of tension N = EA eps, strain eps = (L - L0) / L0 from its rest length L0, "
+    "stores N eps L0 / 2 (a slack tension-only element nothing); the FEM film stores the same "
+    "per lattice direction, E h / (2 lambda) sum_k eps_k^2 per unit flat area. The frame stores "
+    "M^2 L / (2 EI) per node (strip: also in-plane bending and torsion T^2 L / (2 GJ)). The paper "
+    "writes E_DR = sum N eps L / 2 + sum M^2 L / (2 EI), with the current length L: its membrane "
+    "part is larger than the exact one by L / L0, about the pre-stretch (1.5-2x at 150-200 %), "
+    "and is given beside it as info['energy_membrane_paper_formula']."
+)
+"""The energy every solver reports, in words and symbols: the one definition the report quotes."""
 
 SUMMARY_COLUMNS = (
     ("prestretch", "-"),
@@ -26,6 +38,8 @@ SUMMARY_COLUMNS = (
     ("energy_frame_torsion", "N mm"),
     ("energy_frame_axial", "N mm"),
     ("energy_total", "N mm"),
+    ("slack_area_fraction_any", "-"),
+    ("slack_area_fraction_full", "-"),
     ("iterations", "-"),
     ("residual", "-"),
     ("wall_time", "s"),
@@ -63,7 +77,9 @@ class Result:
     blocks, point_data
         What the VTK file holds: cell blocks with per-cell fields, and per-node fields.
     info
-        Solver-specific extras (kinetic-energy peaks, element forces, ...).
+        Solver-specific extras (kinetic-energy peaks, element forces, ...); for scenes also
+        ``slack_area_fraction_any`` / ``_full``: the flat membrane area with at least one /
+        every link family slack (a tension field / a slack film).
     """
 
     solver: str
@@ -115,9 +131,15 @@ class Result:
 
     @property
     def bending_angle(self) -> float:
-        """Bending angle (deg): base midpoint -> apex above the flat plane, in the symmetry plane."""
+        """Bending angle (deg): base midpoint -> apex above the flat plane, in the symmetry plane,
+        continuous from the flat state (:func:`results.metrics.bending_angle`); in a sweep, the
+        turn nearest the previous state's angle (``info['previous_bending_angle']``)."""
         self._need_scene()
-        return metrics.bending_angle(self.apex, self.frame_point(0.0)[0])
+        x, s, length = self._frame()
+        o = self.scene.outline
+        theta = metrics.bending_angle(x, s, length, o.apex_arc_length(), o.side_length)
+        previous = self.info.get("previous_bending_angle")
+        return theta if previous is None else metrics.nearest_turn(theta, previous)
 
     @property
     def mid_height_width(self) -> float:
@@ -153,6 +175,8 @@ class Result:
             )
         for k in ENERGY_KEYS:
             row[f"energy_{k}"] = self.energy.get(k, 0.0)
+        for k in ("slack_area_fraction_any", "slack_area_fraction_full"):
+            row[k] = self.info.get(k, np.nan)
         row.update(
             iterations=self.iterations,
             residual=self.residual,

@@ -11,7 +11,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from .errors import SceneError
+from .errors import DemesError, SceneError
 from .geometry import Outline
 from .scene import (
     DRSpec,
@@ -35,6 +35,7 @@ BUILTIN_DIR = Path(__file__).parent
 __all__ = [
     "Scene",
     "SceneError",
+    "DemesError",
     "Outline",
     "FrameSpec",
     "MembraneSpec",
@@ -55,26 +56,47 @@ def builtin_scenes() -> list[str]:
     return sorted(p.stem for p in BUILTIN_DIR.glob("*.toml"))
 
 
+MAX_FILE_BYTES = 1_000_000
+"""Largest scene file read (a scene is a few hundred bytes)."""
+
+
 def load(source: str | Path) -> Scene:
     """Read and check a scene from a TOML file path or a built-in scene name.
 
     Raises
     ------
     SceneError
-        If the file is missing or not TOML, or a field is bad; the message names the field.
+        If the file is missing, unreadable, not UTF-8 or not TOML, or a field is bad; the
+        message names the field.
     """
-    path = Path(source)
-    if not path.exists() and path.suffix == "" and (BUILTIN_DIR / f"{path.name}.toml").exists():
-        path = BUILTIN_DIR / f"{path.name}.toml"
-    if not path.exists():
-        raise SceneError(
-            f"scene file {str(source)!r} not found; give a path to a .toml file or one of the "
-            f"built-in scenes: {', '.join(builtin_scenes())}"
-        )
+    if not isinstance(source, (str, Path)) or not str(source).strip():
+        raise SceneError(f"scene {source!r}: give a path to a .toml file or a built-in scene name")
     try:
-        data = tomllib.loads(path.read_text())
+        path = Path(source)
+        if not path.exists() and path.suffix == "" and (BUILTIN_DIR / f"{path.name}.toml").exists():
+            path = BUILTIN_DIR / f"{path.name}.toml"
+        found = path.is_file()
+        size = path.stat().st_size if found else 0
+    except (OSError, ValueError) as exc:  # a name too long, a NUL in it, ...
+        why = exc.strerror if isinstance(exc, OSError) and exc.strerror else str(exc)
+        raise SceneError(f"scene file {str(source)[:80]!r} cannot be read: {why}") from None
+    if not found:
+        raise SceneError(
+            f"scene file {str(source)[:200]!r} not found (or not a file); give a path to a .toml file "
+            f"or one of the built-in scenes: {', '.join(builtin_scenes())}"
+        )
+    if size > MAX_FILE_BYTES:
+        raise SceneError(f"{path}: {size} bytes is too large for a scene file (at most {MAX_FILE_BYTES})")
+    try:
+        data = tomllib.loads(path.read_bytes().decode("utf-8"))
+    except UnicodeDecodeError as exc:
+        raise SceneError(f"{path}: not UTF-8 text (byte {exc.start}); save the scene as UTF-8") from None
     except tomllib.TOMLDecodeError as exc:
         raise SceneError(f"{path}: not valid TOML: {exc}") from None
+    except RecursionError:
+        raise SceneError(f"{path}: not a scene: its tables or arrays are nested too deeply") from None
+    except OSError as exc:
+        raise SceneError(f"{path}: cannot be read: {exc.strerror or exc}") from None
     data.setdefault("name", path.stem)
     return Scene.from_dict(data)
 

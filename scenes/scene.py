@@ -18,13 +18,50 @@ import numpy as np
 from .errors import SceneError
 from .geometry import Outline, equilateral_triangle
 
+PRESTRETCH_MAX = 10.0
+"""Largest pre-stretch ratio a scene may ask for (elastomer films tear well below 10)."""
+
+MAX_VERTICES = 256
+"""Most corners of a polygon outline (the outline checks are O(k^2))."""
+
+MAX_DIVISIONS = 400
+"""Most mesh divisions per side (about 70,000 DR nodes)."""
+
+MAX_SWEEP = 1000
+"""Most pre-stretch levels in a sweep."""
+
 # ----------------------------------------------------------------------------- field checks
 
 
 def _number(name: str, value: Any) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
-        raise SceneError(f"{name} = {value!r} must be a finite number")
-    return float(value)
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise SceneError(f"{name} = {_show(value)} must be a finite number")
+    try:
+        v = float(value)
+    except OverflowError:
+        v = math.inf
+    if not math.isfinite(v):
+        raise SceneError(f"{name} = {_show(value)} must be a finite number")
+    return v
+
+
+def _show(value: Any) -> str:
+    """A field's value for a message, cut short if long."""
+    text = repr(value)
+    return text if len(text) <= 60 else text[:57] + "..."
+
+
+def between(low: float, high: float, low_open: bool = False, high_open: bool = False,
+            why: str = "") -> Callable[[str, Any], float]:
+    """A number in [low, high] (an end excluded if ``*_open``)."""
+    def check(name: str, value: Any) -> float:
+        v = _number(name, value)
+        if v < low or (low_open and v == low) or v > high or (high_open and v == high):
+            lo, hi = "(" if low_open else "[", ")" if high_open else "]"
+            raise SceneError(f"{name} = {v:g} must lie in {lo}{low:g}, {high:g}{hi}{why}")
+        return v
+
+    return check
 
 
 def positive(name: str, value: Any) -> float:
@@ -52,27 +89,31 @@ def prestretch_value(name: str, value: Any) -> float:
             f"{name} = {v:g} is below 1: pre-stretch is a stretch ratio (1.0 = none, 1.5 = 150 %), "
             "and a membrane cannot be pre-compressed"
         )
+    if v > PRESTRETCH_MAX:
+        raise SceneError(f"{name} = {v:g} is above {PRESTRETCH_MAX:g}: no elastomer film stretches that far")
     return v
 
 
 def prestretch_list(name: str, value: Any) -> tuple[float, ...]:
-    if not isinstance(value, (list, tuple)):
-        raise SceneError(f"{name} must be a list of pre-stretch ratios, e.g. [1.1, 1.3, 1.5]")
+    if not isinstance(value, (list, tuple)) or not 0 < len(value) <= MAX_SWEEP:
+        raise SceneError(f"{name} must be a list of 1 to {MAX_SWEEP} pre-stretch ratios, e.g. [1.1, 1.3, 1.5]")
     return tuple(prestretch_value(f"{name}[{i}]", v) for i, v in enumerate(value))
 
 
 def boolean(name: str, value: Any) -> bool:
     if not isinstance(value, bool):
-        raise SceneError(f"{name} = {value!r} must be true or false")
+        raise SceneError(f"{name} = {_show(value)} must be true or false")
     return value
 
 
-def integer_at_least(low: int) -> Callable[[str, Any], int]:
+def integer_at_least(low: int, high: int = 10**9) -> Callable[[str, Any], int]:
     def check(name: str, value: Any) -> int:
         if isinstance(value, bool) or not isinstance(value, int):
-            raise SceneError(f"{name} = {value!r} must be a whole number")
+            raise SceneError(f"{name} = {_show(value)} must be a whole number")
         if value < low:
             raise SceneError(f"{name} = {value} is too small: use at least {low}")
+        if value > high:
+            raise SceneError(f"{name} = {_show(value)} is too large: use at most {high}")
         return value
 
     return check
@@ -80,8 +121,8 @@ def integer_at_least(low: int) -> Callable[[str, Any], int]:
 
 def one_of(*choices: str) -> Callable[[str, Any], str]:
     def check(name: str, value: Any) -> str:
-        if value not in choices:
-            raise SceneError(f"{name} = {value!r} is not one of {', '.join(map(repr, choices))}")
+        if not isinstance(value, str) or value not in choices:
+            raise SceneError(f"{name} = {_show(value)} is not one of {', '.join(map(repr, choices))}")
         return value
 
     return check
@@ -97,13 +138,15 @@ def optional(check: Callable[[str, Any], Any]) -> Callable[[str, Any], Any]:
 def vertex_list(name: str, value: Any) -> tuple[tuple[float, float], ...] | None:
     if value is None:
         return None
-    try:
-        pts = tuple((float(p[0]), float(p[1])) for p in value if len(p) == 2)
-    except (TypeError, ValueError, IndexError):
-        pts = ()
-    if len(pts) != len(value) or len(pts) < 3:
-        raise SceneError(f"{name} must be a list of at least 3 [x, y] points in mm")
-    return pts
+    usage = f"{name} must be a list of 3 to {MAX_VERTICES} [x, y] points in mm, e.g. [[0, 0], [40, 0], [20, 30]]"
+    if not isinstance(value, (list, tuple)) or not 3 <= len(value) <= MAX_VERTICES:
+        raise SceneError(usage)
+    pts = []
+    for k, p in enumerate(value):
+        if not isinstance(p, (list, tuple)) or len(p) != 2:
+            raise SceneError(f"{name}[{k}] = {_show(p)}: {usage}")
+        pts.append((between(-1e5, 1e5)(f"{name}[{k}][0]", p[0]), between(-1e5, 1e5)(f"{name}[{k}][1]", p[1])))
+    return tuple(pts)
 
 
 def spec(default: Any, check: Callable[[str, Any], Any], unit: str = "", doc: str = "") -> Any:
@@ -158,7 +201,7 @@ class FrameSpec(_Section):
 
     _prefix = "frame"
     outline: str = spec("triangle", one_of("triangle", "polygon"), "", "outline kind")
-    side_length: float = spec(52.0, positive, "mm", "side of the equilateral triangle")
+    side_length: float = spec(52.0, between(1e-2, 1e5), "mm", "side of the equilateral triangle")
     vertices: Any = spec(None, vertex_list, "mm", "polygon corners (outline = 'polygon')")
     corner_radius: float = spec(5.0, non_negative, "mm", "fillet radius at every corner")
     model: str = spec(
@@ -186,6 +229,12 @@ class FrameSpec(_Section):
             raise SceneError(f"frame.poisson = {self.poisson:g} must lie in (-1, 0.5)")
         if self.outline == "polygon" and self.vertices is None:
             raise SceneError("frame.outline = 'polygon' needs frame.vertices = [[x, y], ...] (mm)")
+        if self.corner_radius <= 0.5 * self.width:
+            raise SceneError(
+                f"frame.corner_radius = {self.corner_radius:g} mm must exceed half the strip width "
+                f"(frame.width / 2 = {0.5 * self.width:g} mm): a flat strip bent round a tighter "
+                "corner folds over itself at its inner edge"
+            )
         if self.thickness >= self.width:
             raise SceneError(
                 f"frame.thickness = {self.thickness:g} mm must be smaller than frame.width = "
@@ -304,7 +353,7 @@ class MeshSpec(_Section):
     """Mesh density: lattice divisions along the base side (DR) / element size side/divisions (FEM)."""
 
     _prefix = "mesh"
-    divisions: int = spec(28, integer_at_least(4), "", "divisions per base side")
+    divisions: int = spec(28, integer_at_least(4, MAX_DIVISIONS), "", "divisions per base side")
 
 
 @dataclass(frozen=True)
@@ -318,14 +367,27 @@ class DRSpec(_Section):
         "",
         "'clustered': one tension per lattice line (the paper); 'links': one per segment",
     )
-    tolerance: float = spec(1e-6, positive, "", "residual / largest internal force")
-    mass_safety: float = spec(2.0, positive, "", "fictitious mass safety factor f (>= 1)")
+    tolerance: float = spec(
+        1e-6, between(1e-12, 0.1, why=" (relative residual; below 1e-12 it is round-off)"), "",
+        "residual / largest internal force")
+    mass_safety: float = spec(
+        2.0, between(1.0, 1e3, why=" (below 1 the time step is unstable; 2 is safe)"), "",
+        "fictitious mass safety factor f (>= 1)")
     max_iterations: int = spec(3_000_000, integer_at_least(1), "", "time-step limit (per pre-stretch step)")
     prestretch_step: float = spec(
         0.025, non_negative, "", "largest pre-stretch increment on the way to a state (0: all at once)"
     )
-    step_tolerance: float = spec(1e-3, positive, "", "tolerance of the intermediate pre-stretch steps")
+    step_tolerance: float = spec(
+        1e-3, between(1e-12, 0.1, why=" (relative residual)"), "", "tolerance of the intermediate pre-stretch steps")
     check_contact: bool = spec(True, boolean, "", "stop on frame self-contact or membrane folds")
+
+    def __post_init__(self) -> None:
+        super().__post_init__()
+        if 0.0 < self.prestretch_step < 1e-3 or self.prestretch_step > PRESTRETCH_MAX:
+            raise SceneError(
+                f"dr.prestretch_step = {self.prestretch_step:g} must be 0 (all at once) or lie in "
+                f"[0.001, {PRESTRETCH_MAX:g}]: smaller steps make tens of thousands of relaxations"
+            )
 
 
 @dataclass(frozen=True)
@@ -334,9 +396,9 @@ class FEMSpec(_Section):
 
     _prefix = "fem"
     element: str = spec("P1", one_of("P1", "P2"), "", "membrane element")
-    refinement: int = spec(0, integer_at_least(0), "", "times the element size is halved")
+    refinement: int = spec(0, integer_at_least(0, 5), "", "times the element size is halved")
     time_limit: float = spec(
-        0.0, non_negative, "s", "wall-time budget of one sweep (0: none); spent, the path stops with status 'time_limit'"
+        0.0, between(0.0, 1e7), "s", "wall-time budget of one sweep (0: none); spent, the path stops with status 'time_limit'"
     )
 
 
@@ -365,6 +427,27 @@ class Scene:
         "dr": DRSpec,
         "fem": FEMSpec,
     }
+
+    def __post_init__(self) -> None:
+        for key, limit in (("name", 100), ("description", 10_000)):
+            value = getattr(self, key)
+            if not isinstance(value, str) or len(value) > limit:
+                raise SceneError(f"{key} = {_show(value)} must be a text of at most {limit} characters")
+        if any(c in self.name for c in '/\\\0') or not self.name.isprintable() or self.name in ("", ".", ".."):
+            raise SceneError(f"name = {self.name!r} names the output folder: use letters, digits, '_' or '-'")
+        side = self.outline.side_length
+        for key in ("amplitude", "asymmetry"):
+            if abs(getattr(self.perturbation, key)) > side:
+                raise SceneError(
+                    f"perturbation.{key} = {getattr(self.perturbation, key):g} mm is larger than the "
+                    f"frame's base side ({side:.3g} mm): it is a small lift that breaks the symmetry, e.g. 0.5"
+                )
+        fine = self.mesh.divisions * 2**self.fem.refinement
+        if fine > 2 * MAX_DIVISIONS:
+            raise SceneError(
+                f"mesh.divisions x 2^fem.refinement = {fine} is above {2 * MAX_DIVISIONS}: lower "
+                "mesh.divisions or fem.refinement"
+            )
 
     @property
     def prestretch(self) -> float:

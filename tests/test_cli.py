@@ -34,11 +34,11 @@ def test_demes_solve_writes_table_csv_and_vtk_series(tmp_path, capsys):
 
 def test_demes_reports_a_bad_scene_field_without_a_traceback(tmp_path, capsys):
     code = main(["solve", "--set", "frame.E=-5", "--out", str(tmp_path), "--no-progress"])
-    assert code == 1
+    assert code == 2
     err = capsys.readouterr().err
     assert "frame.E" in err and "Traceback" not in err
     code = main(["solve", "--prestretch", "0.8", "--out", str(tmp_path), "--no-progress"])
-    assert code == 1 and "below 1" in capsys.readouterr().err
+    assert code == 2 and "below 1" in capsys.readouterr().err
 
 
 def test_demes_solve_names_the_stop_and_the_levels_it_did_not_reach(tmp_path, capsys):
@@ -53,3 +53,30 @@ def test_demes_solve_names_the_stop_and_the_levels_it_did_not_reach(tmp_path, ca
     with open(out / "dr_paper.csv") as f:
         rows = list(csv.DictReader(f))
     assert rows[-1]["status"] == "membrane_fold" and "membrane folded over" in rows[-1]["message"]
+
+
+def test_bad_command_lines_give_one_line_and_exit_code_2(tmp_path, capsys):
+    afile = tmp_path / "afile"
+    afile.write_text("x")
+    cases = [
+        (["solve", "--prestretch", "nan"], "--prestretch[0] = nan"),
+        (["solve", "--prestretch", "inf"], "--prestretch[0] = inf"),
+        (["solve", "--prestretch", "1.1", "--out", str(afile)], "is a file, not a folder"),
+        (["solve", "--prestretch", "1.1", "--out", str(afile / "sub")], "cannot be written"),
+        (["bench", "--repeats", "0"], "--repeats 0"),
+        (["fem", "--refinement", "99", "--prestretch", "1.1"], "fem.refinement"),
+        (["solve", "--set", "mesh.divisions=" + "9" * 5000], "mesh.divisions"),
+    ]
+    for argv, words in cases:
+        if argv[0] != "bench":
+            argv = argv + ["--no-progress"] + ([] if "--out" in argv else ["--out", str(tmp_path / "o")])
+        assert main(argv) == 2, argv
+        err = capsys.readouterr().err
+        assert words in err and "Traceback" not in err and len(err.strip().splitlines()) == 1, err
+
+
+def test_a_repeated_prestretch_is_solved_once(tmp_path, capsys):
+    out = tmp_path / "run"
+    main(["solve", "--prestretch", "1.1", "1.1", "1.0", "--set", "mesh.divisions=6", "--out", str(out), "--no-progress"])
+    with open(out / "dr_paper.csv") as f:
+        assert [float(r["prestretch"]) for r in csv.DictReader(f)] == [1.0, 1.1]

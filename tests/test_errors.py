@@ -123,3 +123,93 @@ def test_non_convergence_says_so_with_residual_and_iterations():
 def test_dr_rejects_a_membrane_law_it_does_not_model():
     with pytest.raises(scenes.SceneError, match="neo-hookean"):
         dr.build(scenes.paper_demes(1.2, **{"membrane.law": "neo-hookean"}))
+
+
+@pytest.mark.parametrize(
+    "change, words",
+    [
+        ({"dr.tolerance": 5e-324}, ["dr.tolerance", "1e-12"]),
+        ({"dr.tolerance": 1.0}, ["dr.tolerance", "0.1"]),
+        ({"dr.mass_safety": 0.5}, ["dr.mass_safety", "unstable"]),
+        ({"dr.prestretch_step": 1e-9}, ["dr.prestretch_step", "0.001"]),
+        ({"dr.prestretch_step": 5e-324}, ["dr.prestretch_step"]),
+        ({"mesh.divisions": 10**30}, ["mesh.divisions", "at most 400"]),
+        ({"mesh.divisions": 1e9}, ["mesh.divisions", "whole number"]),
+        ({"frame.side_length": 1e160}, ["frame.side_length", "100000"]),
+        ({"frame.corner_radius": 0.0}, ["frame.corner_radius", "half the strip width"]),
+        ({"frame.outline": "polygon", "frame.vertices": 0}, ["frame.vertices", "list of 3 to 256"]),
+        ({"frame.outline": "polygon", "frame.vertices": [{"x": 1}, {"x": 2}, {"x": 3}]}, ["frame.vertices[0]"]),
+        ({"frame.outline": "polygon", "frame.vertices": [[float(k), float(k * k)] for k in range(10_000)]},
+         ["frame.vertices", "256"]),
+        ({"prestretch": float("nan")}, ["loading.prestretch", "finite"]),
+        ({"prestretch": 1e9}, ["loading.prestretch", "above 10"]),
+        ({"perturbation.amplitude": 1e300}, ["perturbation.amplitude", "larger than"]),
+        ({"fem.refinement": 4, "mesh.divisions": 100}, ["fem.refinement", "800"]),
+        ({"name": "../x"}, ["name", "output folder"]),
+    ],
+)
+def test_every_size_and_setting_is_bounded_before_work_starts(change, words):
+    with pytest.raises(scenes.SceneError) as err:
+        scenes.load("demes_paper").updated(**change)
+    for w in words:
+        assert w in str(err.value)
+
+
+@pytest.mark.parametrize("outline", [
+    [[0, 0], [40, 0], [40, 40], [0, 40]],                      # square
+    [[0, 0], [40, 0], [40, 20], [20, 20], [20, 40], [0, 40]],  # L-shaped
+    [[0, 0], [40, 0], [0, 40]],                                # right triangle
+])
+def test_sharp_cornered_frames_are_refused(outline):
+    """corner_radius = 0 with a taped base used to give 'converged' with all-NaN positions."""
+    with pytest.raises(scenes.SceneError, match="frame.corner_radius"):
+        scenes.load("demes_paper").updated(**{"frame.outline": "polygon", "frame.vertices": outline,
+                                               "frame.corner_radius": 0.0})
+
+
+@pytest.mark.parametrize("content, words", [
+    (b"\xff\xfe[frame]\n", "not UTF-8"),
+    (b"x = " + b"[" * 5000 + b"]" * 5000, "nested too deeply"),
+    (b"[frame]\nvertices = 0\noutline = 'polygon'\n", "frame.vertices"),
+])
+def test_bad_scene_files_are_named(tmp_path, content, words):
+    path = tmp_path / "bad.toml"
+    path.write_bytes(content)
+    with pytest.raises(scenes.SceneError, match=words):
+        scenes.load(path)
+    with pytest.raises(scenes.SceneError, match="not found"):
+        scenes.load(tmp_path)  # a folder
+    with pytest.raises(scenes.SceneError):
+        scenes.load(tmp_path / ("x" * 5000))  # a name too long for the file system
+
+
+def test_project_errors_share_one_base_class():
+    from fem_reference import FEMError
+
+    for error in (scenes.SceneError, dr.DRError, FEMError):
+        assert issubclass(error, scenes.DemesError)
+
+
+def test_a_prestretch_path_with_nan_is_refused_by_both_solvers():
+    import fem_reference
+
+    scene = scenes.paper_demes(1.2, **{"mesh.divisions": 4})
+    for bad in (float("nan"), float("inf"), 0.5):
+        with pytest.raises(scenes.SceneError):
+            list(dr.sweep(scene, [bad]))
+        with pytest.raises(scenes.SceneError):
+            list(fem_reference.sweep(scene, [bad]))
+
+
+def test_the_fem_time_limit_is_checked_inside_newton():
+    """A deadline already passed stops Newton after its first evaluation, not at the end of a
+    continuation step."""
+    import time
+
+    from fem_reference.model import DemesProblem
+    from fem_reference.newton import newton
+
+    pb = DemesProblem(scenes.paper_demes(1.2, "strip", **{"mesh.divisions": 6}), 0, "P1")
+    pb.lam = 1.2
+    out = newton(pb, pb.initial_guess(), max_iterations=50, deadline=time.perf_counter() - 1.0)
+    assert out.status == "time_limit" and out.iterations == 0 and not out.converged

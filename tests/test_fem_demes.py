@@ -185,7 +185,7 @@ def test_bad_input_names_the_field(changes, field):
 
 
 def test_neo_hookean_compression_is_measured():
-    from fem_reference.output import compressed_fraction, slack_fraction
+    from fem_reference.output import compressed_fraction, slack_fractions
 
     pb = DemesProblem(coarse("strip", **{"membrane.law": "neo-hookean"}), 0, "P1")
     pb.lam = 1.3
@@ -195,8 +195,14 @@ def test_neo_hookean_compression_is_measured():
     assert compressed_fraction(pb, squeezed) == pytest.approx(1.0)
     lin = DemesProblem(coarse("strip"), 0, "P1")
     lin.lam = 1.3
-    assert slack_fraction(lin, squeezed) == pytest.approx(1.0)
-    assert slack_fraction(lin, flat) == 0.0
+    assert slack_fractions(lin, squeezed) == pytest.approx((1.0, 1.0))
+    assert slack_fractions(lin, flat) == (0.0, 0.0)
+    # the lattice families at 0, 60 and 120 deg: squeezed across the base, the inclined ones
+    # stretch by 1.3 |(0.5, 0.866 f)|, taut for f = 0.7 (1.02) and slack for f = 0.5 (0.86)
+    one_way = (pb.X * [1.0, 0.7, 1.0]).ravel()
+    assert slack_fractions(lin, one_way) == (0.0, 0.0)
+    across = (pb.X * [1.0, 0.5, 1.0]).ravel()
+    assert slack_fractions(lin, across) == pytest.approx((1.0, 0.0))
 
 
 def test_a_spent_time_limit_stops_the_path_with_a_named_status():

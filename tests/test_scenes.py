@@ -72,10 +72,46 @@ def test_landmarks_of_the_taped_base():
     assert pinned.clamps() == [] and pinned.base_region()[0] < s_right
 
 
-def test_bending_angle_runs_past_180_degrees_without_wrapping():
-    from results.metrics import bending_angle
+def curled_frame(scene, turn: float, y0: float = 2.0, radius: float = 5.0, samples: int = 400):
+    """Frame points of ``scene``'s outline curled about the x axis: above y0 the midline turns by
+    ``turn`` rad on a circle of ``radius`` and then runs straight (a tight curl near the base
+    and a straight apex, the shape of a DEMES curled past 270 deg). Returns (points, arc
+    lengths, apex angle atan2(dz, dy) in [0, 360) deg from the closed form)."""
+    o = scene.outline
+    s = np.linspace(0.0, o.length, samples, endpoint=False)
+    xy = o.evaluate(s)[0]
 
-    base = np.zeros(3)
-    for theta in (-30.0, 0.0, 45.0, 90.0, 135.0, 179.0, 181.0, 200.0, 260.0):
-        t = np.radians(theta)
-        assert bending_angle(np.array([0.0, np.cos(t), np.sin(t)]) * 30.0, base) == pytest.approx(theta)
+    def midline(u):
+        bent = np.minimum(u, turn * radius)
+        straight = u - bent
+        psi = bent / radius
+        return (y0 + radius * np.sin(psi) + straight * np.cos(turn),
+                radius * (1.0 - np.cos(psi)) + straight * np.sin(turn))
+
+    u = np.clip(xy[:, 1] - y0, 0.0, None)
+    y, z = midline(u)
+    pts = np.column_stack([xy[:, 0], np.where(xy[:, 1] > y0, y, xy[:, 1]), z])
+    ya, za = midline(np.array(o.height() - y0))
+    return pts, s, np.degrees(np.arctan2(za, ya)) % 360.0
+
+
+def test_bending_angle_is_continuous_past_270_degrees():
+    """Ever tighter curls: the angle grows through 180 and 270 deg without a jump (it read -79
+    for a 281 deg curl when it wrapped at 270)."""
+    from results import Result
+
+    scene = scenes.load("demes_paper")
+    angles = []
+    for turn in np.radians(np.linspace(0.0, 330.0, 34)):
+        pts, s, closed_form = curled_frame(scene, turn)
+        res = Result(solver="test", x=pts, x0=pts, converged=True, status="converged", message="",
+                     iterations=0, residual=0.0, wall_time=0.0, energy={}, frame_nodes=np.arange(len(s)),
+                     frame_s=s, scene=scene)
+        theta = res.bending_angle
+        assert theta % 360.0 == pytest.approx(closed_form, abs=0.05)
+        angles.append(theta)
+    assert angles[0] == pytest.approx(0.0, abs=1e-9) and max(angles) > 300.0
+    assert np.all(np.diff(angles) > 0)
+    # along a sweep, the turn nearest the previous state's angle
+    res.info["previous_bending_angle"] = angles[-1] - 350.0
+    assert res.bending_angle == pytest.approx(angles[-1] - 360.0)

@@ -5,11 +5,14 @@ from __future__ import annotations
 import argparse
 import json
 import sys
+import tempfile
 from pathlib import Path
 from typing import Any, Sequence
 
 import scenes
 from results import atomic_write_text
+from scenes import DemesError
+from scenes.scene import prestretch_list
 
 from .executor import DEFAULT_WORKERS
 from .grid import DEFAULT_MAX_POINTS
@@ -20,7 +23,7 @@ def _parse_value(text: str) -> Any:
     """A --set value: TOML-like literals (numbers, true/false, lists) or a bare string."""
     try:
         return json.loads(text)
-    except json.JSONDecodeError:
+    except (ValueError, RecursionError):  # not JSON (a bare word), or too deep / too many digits
         return text
 
 
@@ -39,11 +42,26 @@ def load_scene(args: argparse.Namespace) -> scenes.Scene:
 
 
 def _prestretches(args: argparse.Namespace, scene: scenes.Scene) -> list[float]:
-    values = args.prestretch if args.prestretch else list(scene.loading.sweep)
-    for v in values:
-        if v < 1.0:
-            raise scenes.SceneError(f"--prestretch {v:g} is below 1: pre-stretch is a ratio (1.5 = 150 %)")
-    return sorted(values)
+    """The requested pre-stretches, checked, sorted, each once."""
+    if not args.prestretch:
+        return sorted(set(scene.loading.sweep))
+    return sorted(set(prestretch_list("--prestretch", args.prestretch)))
+
+
+def writable_folder(path: str | Path, option: str = "--out") -> Path:
+    """``path`` as an output folder, created if missing and tested by writing to it, before any
+    work is done (so that no solved state is lost to a bad folder)."""
+    out = Path(path)
+    if out.exists() and not out.is_dir():
+        raise DemesError(f"{option} {str(out)!r} is a file, not a folder; give a folder name")
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+        with tempfile.NamedTemporaryFile(dir=out, prefix=".demes-write-test-"):
+            pass
+    except OSError as exc:
+        raise DemesError(f"{option} {str(out)!r} cannot be written ({exc.strerror or exc}); give a folder "
+                         "you can write to") from None
+    return out
 
 
 def _common(p: argparse.ArgumentParser, out_default: str) -> None:
@@ -57,8 +75,10 @@ def _common(p: argparse.ArgumentParser, out_default: str) -> None:
 
 def _run_solver(args: argparse.Namespace, solver: str) -> int:
     scene = load_scene(args)
+    if solver == "fem" and args.refinement is not None:
+        scene = scene.updated(**{"fem.refinement": args.refinement})
     lams = _prestretches(args, scene)
-    out = Path(args.out)
+    out = writable_folder(args.out)
     if solver == "dr":
         import dr
 
@@ -67,7 +87,7 @@ def _run_solver(args: argparse.Namespace, solver: str) -> int:
     else:
         import fem_reference
 
-        refinement = scene.fem.refinement if args.refinement is None else args.refinement
+        refinement = scene.fem.refinement
         states = fem_reference.sweep(scene, lams, refinement=refinement)
         label = f"fem_{scene.frame.model}_r{refinement}"
     results = run_sweep(states, lams, out, label, progress=not args.no_progress)
@@ -90,7 +110,9 @@ def cmd_validate(args: argparse.Namespace) -> int:
     from .validate import validate
 
     scene = load_scene(args)
-    out = Path(args.out or f"reports/{scene.name}{'_quick' if args.quick else ''}")
+    if not 1 <= args.workers <= 64:
+        raise DemesError(f"--workers {args.workers}: give 1 to 64 worker processes")
+    out = writable_folder(args.out or f"reports/{scene.name}{'_quick' if args.quick else ''}")
     files = validate(scene, out, quick=args.quick, workers=args.workers, progress=not args.no_progress,
                      scheduler=args.scheduler)
     print(f"wrote {out / 'index.html'} and {out / 'report.md'} in {files['elapsed_s']:.0f} s")
@@ -106,7 +128,9 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     except GridError as exc:
         print(f"demes sweep: bad grid: {exc}", file=sys.stderr)
         return 1
-    out = Path(args.out or f"out/sweep/{grid.name}")
+    if not 1 <= args.workers <= 64:
+        raise DemesError(f"--workers {args.workers}: give 1 to 64 worker processes")
+    out = writable_folder(args.out or f"out/sweep/{grid.name}")
     study = run_study(grid, out, scheduler=args.scheduler, workers=args.workers, vtk=args.vtk,
                       progress=not args.no_progress)
     counts = study.table["status"].value_counts()
@@ -122,6 +146,8 @@ def cmd_sweep(args: argparse.Namespace) -> int:
 def cmd_bench(args: argparse.Namespace) -> int:
     from . import bench
 
+    if not 1 <= args.repeats <= 100:
+        raise DemesError(f"--repeats {args.repeats}: give 1 to 100 runs per case")
     return bench.main(repeats=args.repeats)
 
 
@@ -167,12 +193,15 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
+    """Run a ``demes`` command. Exit codes: 0 done, 2 bad input (one line on stderr naming the
+    field and the fix; argparse's usage errors too) or a state that did not converge, 130
+    interrupted."""
     args = build_parser().parse_args(argv)
     try:
         return args.func(args)
-    except scenes.SceneError as exc:
-        print(f"demes: bad scene: {exc}", file=sys.stderr)
-        return 1
+    except DemesError as exc:
+        print(f"demes: {' '.join(str(exc).split())}", file=sys.stderr)
+        return 2
     except KeyboardInterrupt:
         print("demes: interrupted; finished states are on disk", file=sys.stderr)
         return 130

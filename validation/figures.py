@@ -88,8 +88,11 @@ def energy_stroke(a: Analysis, path: Path) -> Path:
         label = st["label"] if key != "reference" else f"FEM, refinement {a.plan.reference_levels[-1]}"
         axes[0].plot(stroke, e_mem + e_frame, st["marker"] + "-", color=st["color"], label=label)
         axes[1].plot(stroke, e_mem, st["marker"] + "-", color=st["color"], label=f"membrane, {label}")
+        paper = np.array([r.info.get("energy_membrane_paper_formula", np.nan) for _, r in ok], dtype=float)
+        if np.isfinite(paper).any():
+            axes[1].plot(stroke, paper, ":", color=st["color"], label=f"membrane by the paper's formula, {label}")
         axes[1].plot(stroke, e_frame, st["marker"] + "--", color=st["color"], mfc="none", label=f"frame, {label}")
-    axes[0].set_title("Total strain energy E_DR vs stroke")
+    axes[0].set_title("Total strain energy vs stroke (exact)")
     axes[1].set_title("Energy split: membrane (solid) and frame (dashed)")
     for ax in axes:
         _label(ax, "stroke [deg] (from the most bent converged state)", "energy [N mm]", fontsize=6)

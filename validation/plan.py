@@ -158,7 +158,8 @@ def hard_cases(coarse: dict[str, Any], lams: tuple[float, ...], quick: bool) -> 
             limit = {"fem.time_limit": HARD_FEM_TIME_LIMIT[quick]}
             runs.append(Run(f"hard_fem_{name}", "fem", {**coarse, **REFERENCE, **change, **limit}, case_lams, group="hard",
                             title=title))
-    for f in (1.0, 0.5):
-        runs.append(Run(f"hard_dr_mass_safety_{f:g}", "dr", {**coarse, **MATCHED, "dr.mass_safety": f}, lams, group="hard",
-                        title=f"DR mass safety factor f = {f:g} (stable for f >= 1)"))
+    # below f = 1 the time step is unstable and the scene refuses it (dr.relax itself, given one,
+    # stops with status 'diverged' before any contact is reported: tests/test_errors.py)
+    runs.append(Run("hard_dr_mass_safety_1", "dr", {**coarse, **MATCHED, "dr.mass_safety": 1.0}, lams, group="hard",
+                    title="DR mass safety factor f = 1 (the stability bound; scenes refuse f < 1)"))
     return runs

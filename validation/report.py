@@ -15,9 +15,10 @@ from typing import Any, Sequence
 
 import numpy as np
 
-from results import atomic_write_text
+from results import ENERGY_DEFINITION, atomic_write_text
 
 from .analysis import THRESHOLDS, Analysis
+from .beam_energy import mismatch_sentence
 from .compare import METRIC_UNITS
 from .tables import format_cell, write_csv
 
@@ -111,6 +112,13 @@ BUDGET = (
     ("shape_rms", "shape RMS [/side]", ".3g"),
     ("bending_angle_diff", "d theta [deg]", ".3g"),
 )
+SLACK = (
+    ("run", "run", ""),
+    ("prestretch", "lambda", ".3f"),
+    ("status", "status", ""),
+    ("slack_area_fraction_any", "some family slack", ".1%"),
+    ("slack_area_fraction_full", "all slack", ".1%"),
+)
 HARD = (
     ("case", "case", ""),
     ("solver", "solver", ""),
@@ -181,8 +189,13 @@ def write_report(a: Analysis, out_dir: Path, figures: dict[str, Path | None], ti
             "grid convergence index: with three levels the observed order and a factor 1.25, with two the formal order 2 "
             "and a factor 3). Statuses other than 'converged' are the named stops of the solver.",
             Table(HEADLINE, a.headline), figures.get("bending_angle"), figures.get("frame_curves")]),
-        Section("Energy against stroke", ["Strain energy (E_DR = sum N eps L / 2 + M^2 L / 2 EI) split into membrane and "
-                                          "frame, against the stroke from the most bent state.", figures.get("energy_stroke")]),
+        Section("Energy against stroke", [ENERGY_DEFINITION, mismatch_sentence(),
+                                          "Strain energy split into membrane and frame, against the stroke from the most "
+                                          "bent state; dotted: the membrane part by the paper's formula.",
+                                          figures.get("energy_stroke")]),
+        Section("Tension field", ["Flat membrane area with at least one slack link family (a tension field: the film "
+                                  "would wrinkle) and with every family slack, per state.",
+                                  Table(SLACK, [r for r in a.state_rows if r.get("group") in ("sweep", "reference")])]),
         Section(f"Speed against error (lambda = {lam:g})", [
             "Each state solved from scratch; DR over mesh density and tolerance, the FEM over refinement levels "
             "(continuation from the flat state included in its time).",
