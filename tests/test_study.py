@@ -40,7 +40,7 @@ def grid(max_points=10_000, **changes):
     ({"points": [{"frame.width": "wide"}]}, ["points[0]", "frame.width"]),
     ({"points": [{"mesh.divisions": 8}]}, ["mesh.divisions", "both"]),
     ({"prestretch": [0.9]}, ["prestretch[0]", "below 1"]),
-    ({"prestretch": []}, ["prestretch", "empty"]),
+    ({"prestretch": []}, ["prestretch", "1 to 1000"]),
     ({"solver": "abaqus"}, ["solver"]),
     ({"product": {"mesh.divisions": [6, 6]}}, ["'mesh.divisions': 6", "twice"]),
     ({"sweep": [1.1]}, ["'sweep'"]),

@@ -132,8 +132,6 @@ def grid_from_dict(data: dict[str, Any], *, name: str = "grid", base_dir: Path =
         prestretches = tuple(sorted(prestretch_list("prestretch", data.get("prestretch", list(base.loading.sweep)))))
     except scenes.SceneError as exc:
         raise GridError(str(exc)) from None
-    if not prestretches:
-        raise GridError("prestretch is an empty list: give at least one pre-stretch ratio, e.g. [1.1, 1.2]")
     if len({f"{v:.4f}" for v in prestretches}) < len(prestretches):
         raise GridError(f"prestretch = {list(prestretches)} repeats a value (to 4 decimals)")
     n_points = len(points or [{}]) * math.prod(len(v) for v in product.values()) * len(prestretches)
