@@ -42,7 +42,7 @@ def cable_area(scene: Scene, spacing: float) -> float:
     """Cable area (mm^2) that makes the net a film of the scene's thickness: A = sqrt(3)/2 h s.
 
     A triangular net of links EA at spacing s is, for small strains, an isotropic membrane
-    with E t = 2/sqrt(3) EA/s and Poisson's ratio 1/3 (DESIGN.md).
+    with E t = 2/sqrt(3) EA/s and Poisson's ratio 1/3 (docs/elements.md, 'The film as a net of cables').
     """
     return np.sqrt(3) / 2 * scene.membrane.thickness * spacing
 
@@ -293,8 +293,9 @@ def _ramp(start: float, stop: float, step: float) -> list[float]:
     if step <= 0 or stop <= start:
         return [stop]
     n = int(np.ceil((stop - start) / step - 1e-9))
-    # the last level is ``stop`` itself, bit for bit: results are keyed by it
-    return [float(start + (stop - start) * k / n) for k in range(1, n)] + [float(stop)]
+    # the last level is ``stop`` itself, bit for bit: results are keyed by it; the others are
+    # rounded off the float noise of the division (1.2, not 1.2000000000000002)
+    return [round(start + (stop - start) * k / n, 12) for k in range(1, n)] + [float(stop)]
 
 
 def sweep(scene: Scene, prestretches: Sequence[float], progress: bool = False,

@@ -4,7 +4,7 @@ Everything acts on an extended position array X = [real nodes; virtual nodes]. V
 are positions derived from real ones:
 
 - ghosts (moving clamp ghosts): the mirror image of a beam's second node across the plane
-  through the clamped node normal to the clamped tangent (second-order clamp, DESIGN.md);
+  through the clamped node normal to the clamped tangent (second-order clamp, docs/elements.md);
 - offsets: a frame node moved by a signed distance along the strip normal, where the film is
   bonded on one face of the strip (the membrane then acts t/2 off the centreline).
 

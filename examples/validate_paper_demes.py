@@ -2,7 +2,8 @@
 
 Run:  python examples/validate_paper_demes.py [--full]
 (quick: about a minute on a coarse mesh; --full: about 17 minutes on two cores). Same as
-`demes validate [--quick]`; an interrupted run resumes from the states it finished.
+`demes validate [--quick]`; an interrupted run resumes from the states it finished. The tests run
+it (quick) to make the report they check.
 
 The report is reports/<scene>[_quick]/index.html; every number is also in metrics.json.
 """
@@ -12,6 +13,7 @@ import sys
 from pathlib import Path
 
 import scenes
+from results import level_label
 from validation.validate import validate
 
 quick = "--full" not in sys.argv
@@ -23,7 +25,7 @@ print(f"report: {files['html']}")
 metrics = json.loads((out / "metrics.json").read_text())
 print("lambda  theta FEM [deg]  theta DR matched [deg]  shape RMS DR matched [/side]")
 for row in metrics["headline"]:
-    print(f"{row['prestretch']:6.2f}  {row['theta_fem']:14.2f}  {row['theta_matched']:22.2f}  "
+    print(f"{level_label(row['prestretch']):>6s}  {row['theta_fem']:14.2f}  {row['theta_matched']:22.2f}  "
           f"{row.get('shape_rms_matched', float('nan')):28.4f}")
 for row in metrics["time_to_error"]:  # None: not reached by that method in this study
     print(f"time to {row['shape_error']:.1%} shape error: DR {row['time_dr']} s, FEM {row['time_fem']} s, "

@@ -29,7 +29,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 
-from .jet import Jet, cross, dot, norm, stack, unit, where
+from .rod_kernels import PAPER, STRIP, Jets, edge_terms, split, vertex_normals, vertex_terms
 
 MODELS = ("paper", "strip")
 
@@ -53,13 +53,13 @@ class RodProperties:
 class StencilTerms:
     """Energies of a batch of stencils and where their local variables go (point indices)."""
 
-    energy: Jet  # (S,)
+    energy: Jets  # value (S,), gradient (S, 3 m), Hessian (S, 3 m, 3 m)
     points: np.ndarray  # (S, m) point ids; local variable 3 j + c is component c of point j
 
 
 def scatter(terms: list[StencilTerms], n_points: int, order: int
             ) -> tuple[np.ndarray, sp.csr_matrix | None]:
-    """Gradient (3 n_points,) and Hessian (sparse) in point space from stencil jets."""
+    """Gradient (3 n_points,) and Hessian (sparse) in point space from stencil derivatives."""
     g = np.zeros(3 * n_points)
     rows, cols, vals = [], [], []
     for term in terms:
@@ -140,9 +140,10 @@ class Rod:
         self.voronoi = 0.5 * (w[a[keep]] + w[b[keep]])
         self.vertex_points = self._vertex_points(self.vertex)
         self.free_edges = np.flatnonzero(~self.edge_held)
-        self.rest_kappa = self._curvature(self._points(self.X, self.vertex_points)).val
+        self.rest_kappa = np.zeros((self.vertex.size, 3))  # the flat outline's, measured next
+        self.rest_kappa = self._vertex_jets(self.X, 0)[0]
 
-    # ------------------------------------------------------------------ stencil geometry
+    # ------------------------------------------------------------------ stencils
     def _vertex_points(self, k: np.ndarray) -> np.ndarray:
         """Point ids of vertex stencils at chain positions k: 3 nodes (+ 2 director points)."""
         m, nn = self.chain.size, self.n_nodes
@@ -152,75 +153,37 @@ class Rod:
             ids += [nn + (k - 1) % n_edges, nn + k % n_edges]
         return np.column_stack(ids)
 
-    def _points(self, x: np.ndarray, ids: np.ndarray) -> Jet:
-        pts = (self.B @ x)[ids]  # (S, m, 3)
-        return Jet.variables(pts)
+    def _points(self, x: np.ndarray, ids: np.ndarray) -> np.ndarray:
+        """Stencil point coordinates (S, m, 3), mm."""
+        return np.ascontiguousarray((self.B @ x)[ids])
 
-    def _edge_frame(self, xa: Jet, xb: Jet, p: Jet | None, edge: np.ndarray) -> list[Jet]:
-        """(t, d2, n) of edges, each (S, 3); held edges keep their flat frame."""
-        t = unit(xb - xa)
-        if p is None:
-            return [t]
-        q = p - (xa + xb) * 0.5
-        d2 = unit(q - t * dot(q, t).expand())
-        frame = [t, d2, cross(t, d2)]
-        held = self.edge_held[edge]
-        if not held.any():
-            return frame
-        return [where(~held[:, None], f, self.rest_frames[edge, j]) for j, f in enumerate(frame)]
+    def _edge_data(self, vertex_edges: np.ndarray) -> tuple[np.ndarray, ...]:
+        a, b = vertex_edges[:, 0], vertex_edges[:, 1]
+        return (self.edge_held[a], self.edge_held[b], np.ascontiguousarray(self.rest_frames[a]),
+                np.ascontiguousarray(self.rest_frames[b]))
 
-    def _frames(self, P: Jet, vertex_edges: np.ndarray) -> tuple[list[Jet], list[Jet]]:
-        pa = P[:, 3] if self.needs_frames else None
-        pb = P[:, 4] if self.needs_frames else None
-        Ra = self._edge_frame(P[:, 0], P[:, 1], pa, vertex_edges[:, 0])
-        Rb = self._edge_frame(P[:, 1], P[:, 2], pb, vertex_edges[:, 1])
-        return Ra, Rb
-
-    def _curvature(self, P: Jet) -> Jet:
-        """Curvature-twist vector (S, 3) in (t, d2, n) axes ('strip') or kb (S, 3) ('paper')."""
-        Ra, Rb = self._frames(P, self.vertex_edges)
-        if self.props.model == "paper":
-            ta, tb = Ra[0], Rb[0]
-            return cross(ta, tb) * (2.0 / (1.0 + dot(ta, tb))).expand()
-        Q = [[dot(Ra[j], Rb[k]) for k in range(3)] for j in range(3)]
-        scale = 2.0 / (1.0 + Q[0][0] + Q[1][1] + Q[2][2])
-        return stack([(Q[2][1] - Q[1][2]) * scale, (Q[0][2] - Q[2][0]) * scale,
-                      (Q[1][0] - Q[0][1]) * scale])
+    def _vertex_jets(self, x: np.ndarray, order: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Curvature vectors (S, 3) and bending and torsion energy jets of the vertices."""
+        pr = self.props
+        return vertex_terms(self._points(x, self.vertex_points), *self._edge_data(self.vertex_edges),
+                            self.rest_kappa, 0.5 / self.voronoi, PAPER if pr.model == "paper" else STRIP,
+                            float(pr.EI), float(pr.EI_strong), float(pr.GJ), self.needs_frames, order)
 
     # ------------------------------------------------------------------ energies
-    def _bending_terms(self, x: np.ndarray) -> tuple[Jet, Jet]:
-        """Per-vertex bending and torsion energies (N mm), as jets."""
-        P = self._points(x, self.vertex_points)
-        kappa = self._curvature(P)
-        pr = self.props
-        w = 0.5 / self.voronoi
-        if pr.model == "paper":
-            k0 = np.linalg.norm(self.rest_kappa, axis=1)
-            e = dot(kappa, kappa)
-            curved = k0 > 0
-            root = where(curved, where(curved, e, 1.0).sqrt(), 0.0)
-            bending = (e - root * (2.0 * k0) + k0**2) * (pr.EI * w)
-            return bending, bending * 0.0  # no torsion in the isotropic model
-        dk = kappa - self.rest_kappa
-        torsion = dk[:, 0].square() * (pr.GJ * w)
-        bending = dk[:, 1].square() * (pr.EI * w) + dk[:, 2].square() * (pr.EI_strong * w)
-        return bending, torsion
-
-    def _axial_terms(self, x: np.ndarray) -> Jet:
-        ids = self.edges[self.free_edges]
-        P = self._points(x, ids)
-        l0 = self.rest_length[self.free_edges]
-        return (norm(P[:, 1] - P[:, 0]) - l0).square() * (self.props.EA / (2.0 * l0))
-
     def evaluate(self, x: np.ndarray, order: int = 2
-                 ) -> tuple[dict[str, float], np.ndarray, sp.csr_matrix | None]:
-        """Energies (N mm: 'bending', 'torsion', 'axial'), gradient (3 nn,) N, tangent N/mm."""
-        bending, torsion = self._bending_terms(x)
-        axial = self._axial_terms(x)
-        energies = {"bending": float(bending.val.sum()), "torsion": float(torsion.val.sum()),
-                    "axial": float(axial.val.sum())}
-        terms = [StencilTerms(bending + torsion, self.vertex_points),
-                 StencilTerms(axial, self.edges[self.free_edges])]
+                 ) -> tuple[dict[str, float], np.ndarray | None, sp.csr_matrix | None]:
+        """Energies (N mm: 'bending', 'torsion', 'axial'), and for order >= 1 the gradient
+        (3 nn,) N and for order 2 the tangent N/mm (None below the order that needs them)."""
+        _, bending, torsion = self._vertex_jets(x, order)
+        ids = self.edges[self.free_edges]
+        axial = edge_terms(self._points(x, ids), self.rest_length[self.free_edges],
+                           float(self.props.EA), order)
+        energies = {"bending": float(bending[:, 0].sum()), "torsion": float(torsion[:, 0].sum()),
+                    "axial": float(axial[:, 0].sum())}
+        if order == 0:
+            return energies, None, None
+        terms = [StencilTerms(split(bending + torsion), self.vertex_points),
+                 StencilTerms(split(axial), ids)]
         g, K = scatter(terms, self.n_points, order)
         g = self.B3.T @ g
         if K is not None:
@@ -228,24 +191,23 @@ class Rod:
         return energies, g, K
 
     # ------------------------------------------------------------------ film offset
-    def normals(self, x: np.ndarray, nodes: np.ndarray) -> tuple[Jet, np.ndarray]:
+    def normals(self, x: np.ndarray, nodes: np.ndarray, order: int = 2) -> tuple[Jets, np.ndarray]:
         """Strip normals at chain positions ``nodes`` (mean of the two edge normals, unit).
 
-        Returns the (S, 3) jet and its stencil point ids (S, 5).
+        Returns their values (S, 3), gradients (S, 3, 15) and Hessians (S, 3, 15, 15) in the
+        stencil coordinates, and the stencil point ids (S, 5).
         """
         ids = self._vertex_points(nodes)
-        P = self._points(x, ids)
         n_edges = self.edges.shape[0]
         vertex_edges = np.column_stack([(nodes - 1) % n_edges, nodes % n_edges])
-        Ra, Rb = self._frames(P, vertex_edges)
-        return unit(Ra[2] + Rb[2]), ids
+        jets = vertex_normals(self._points(x, ids), *self._edge_data(vertex_edges), order)
+        return split(jets), ids
 
     # ------------------------------------------------------------------ output
     def section_forces(self, x: np.ndarray) -> dict[str, np.ndarray]:
         """Per edge: axial force (N), and the mean of its end vertices' bending moment and
         torsional moment (N mm)."""
-        P = self._points(x, self.vertex_points)
-        kappa = self._curvature(P).val
+        kappa = self._vertex_jets(x, 0)[0]
         pr = self.props
         if pr.model == "paper":
             dk = np.linalg.norm(kappa, axis=1) - np.linalg.norm(self.rest_kappa, axis=1)

@@ -1,4 +1,7 @@
-"""Pre-stretched membrane: hyperelastic laws on the flat reference, assembled with scikit-fem.
+"""Pre-stretched membrane: hyperelastic laws on the flat reference, on a scikit-fem basis.
+
+The laws and the element loop are compiled (:mod:`fem_reference.laws`); scikit-fem gives the
+mesh, the shape-function gradients and the quadrature.
 
 Total-Lagrangian: the unknowns are the positions x of the mesh's DOF nodes, the reference is the
 flat mesh (z = 0) and F = dx/dX is the 3x2 deformation gradient. The rest state is the flat state
@@ -19,100 +22,41 @@ Laws (``membrane.law``):
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Callable
 
 import numpy as np
 import scipy.sparse as sp
-from skfem import BilinearForm, Functional, LinearForm
-from skfem.helpers import grad
+from skfem import CellBasis
 
-from .jet import Jet, sqrt, where
+from .laws import LAW_IDS, LATTICE_ANGLES_DEG, element_terms, point_stress
 
-LATTICE_ANGLES_DEG = (0.0, 60.0, 120.0)
-"""Directions of the DR lattice lines (the base side is the x axis)."""
-
-
-# ----------------------------------------------------------------------------- laws
-
-
-class Stretches:
-    """Quadratic invariants (F u) . (F v) of deformation gradients F (batch, 3, 2).
-
-    With ``order`` 0 they are plain arrays (energy only); otherwise jets in the six entries of F
-    (variable 2 i + j is F_ij), whose Hessians are constant, so a law written on them gets its
-    exact first and second derivatives cheaply.
-    """
-
-    def __init__(self, F: np.ndarray, order: int):
-        self.F, self.order = F, order
-
-    def pair(self, u: np.ndarray, v: np.ndarray):
-        u, v = np.asarray(u, float), np.asarray(v, float)
-        Fu, Fv = self.F @ u, self.F @ v  # (batch, 3)
-        val = np.einsum("si,si->s", Fu, Fv)
-        if self.order == 0:
-            return val
-        grad = (Fv[:, :, None] * u + Fu[:, :, None] * v).reshape(-1, 6)
-        block = np.outer(u, v) + np.outer(v, u)  # (2, 2)
-        hess = np.einsum("ik,jl->ijkl", np.eye(3), block).reshape(6, 6)
-        return Jet(val, grad, np.broadcast_to(hess, (val.size, 6, 6)))
-
-
-def linear_law(st: Stretches, lam: float, E: float, h: float, tension_only: bool):
-    """Link-net law W (N/mm): W = E h / (2 lambda) sum_k eps_k^2, eps_k = lambda |F m_k| - 1."""
-    W = 0.0
-    for angle in np.radians(LATTICE_ANGLES_DEG):
-        m = np.array([np.cos(angle), np.sin(angle)])
-        eps = sqrt(st.pair(m, m)) * lam - 1.0
-        if tension_only:
-            eps = where((eps.val if isinstance(eps, Jet) else eps) > 0.0, eps, 0.0)
-        W = eps * eps + W
-    return W * (E * h / (2.0 * lam))
-
-
-def neo_hookean_law(st: Stretches, lam: float, E: float, h: float, tension_only: bool):
-    """Incompressible neo-Hookean membrane W (N/mm); ``tension_only`` does not apply."""
-    e1, e2 = np.array([1.0, 0.0]), np.array([0.0, 1.0])
-    g11, g22, g12 = st.pair(e1, e1), st.pair(e2, e2), st.pair(e1, e2)
-    det_c = (g11 * g22 - g12 * g12) * lam**4
-    mu = E / 3.0
-    return ((g11 + g22) * lam**2 + 1.0 / det_c - 3.0) * (mu * h / 2.0)
-
-
-LAWS: dict[str, Callable] = {"linear": linear_law, "neo-hookean": neo_hookean_law}
-
-
-# ----------------------------------------------------------------------------- forms
-
-
-def _field(w, name: str) -> np.ndarray:
-    """A quadrature-point array passed to a form, as a plain view (no copy)."""
-    return w[name].view(np.ndarray)
-
-
-@Functional
-def _energy_form(w):
-    return _field(w, "W")
-
-
-@LinearForm
-def _residual_form(v, w):
-    return np.einsum("ij...,ij...->...", _field(w, "P"), grad(v))
-
-
-@BilinearForm
-def _tangent_form(u, v, w):
-    return np.einsum("ijkl...,ij...,kl...->...", _field(w, "A"), grad(v), grad(u))
+__all__ = ["Membrane", "MembraneState", "LATTICE_ANGLES_DEG"]
 
 
 @dataclass
 class MembraneState:
-    """Law evaluated at the quadrature points: W (nel, nqp), P (3, 2, nel, nqp), F likewise."""
+    """Law evaluated at the quadrature points: F (3, 2, nel, nqp), W (nel, nqp), P like F."""
 
     F: np.ndarray
     W: np.ndarray
     P: np.ndarray | None
-    A: np.ndarray | None
+
+
+class Pattern:
+    """Where element matrices (nel, n, n) go in a CSR matrix of fixed sparsity: the symbolic
+    assembly done once per mesh, so that each tangent is one weighted bincount."""
+
+    def __init__(self, element_dofs: np.ndarray, n_dofs: int):
+        nel, n = element_dofs.shape
+        rows = np.repeat(element_dofs, n, axis=1).ravel()
+        cols = np.tile(element_dofs, (1, n)).ravel()
+        keys, self.slot = np.unique(rows.astype(np.int64) * n_dofs + cols, return_inverse=True)
+        self.indices = (keys % n_dofs).astype(np.int32)
+        self.indptr = np.searchsorted(keys // n_dofs, np.arange(n_dofs + 1)).astype(np.int32)
+        self.shape = (n_dofs, n_dofs)
+
+    def matrix(self, blocks: np.ndarray) -> sp.csr_matrix:
+        data = np.bincount(self.slot, weights=blocks.ravel(), minlength=self.indices.size)
+        return sp.csr_matrix((data, self.indices, self.indptr), shape=self.shape)
 
 
 class Membrane:
@@ -128,58 +72,62 @@ class Membrane:
     """
 
     def __init__(self, basis, law: str, E: float, h: float, tension_only: bool):
-        if law not in LAWS:
-            raise ValueError(f"membrane.law = {law!r} is not one of {', '.join(LAWS)}")
+        if law not in LAW_IDS:
+            raise ValueError(f"membrane.law = {law!r} is not one of {', '.join(LAW_IDS)}")
         self.basis = basis
         self.law, self.E, self.h, self.tension_only = law, E, h, tension_only
         locs = basis.doflocs[:, ::3]  # one location per node
         self.X = np.column_stack([locs[0], locs[1], np.zeros(locs.shape[1])])  # (nn, 3) mm
+        # the scalar element on the same quadrature: its node numbering is the vector DOF / 3
+        scalar = CellBasis(basis.mesh, basis.elem.elem, quadrature=(basis.X, basis.W))
+        self._dofs = np.ascontiguousarray(scalar.element_dofs.T)  # (nel, nb)
+        self._grads = np.ascontiguousarray(
+            np.stack([phi[0].grad for phi in scalar.basis]).transpose(2, 3, 0, 1))  # (nel, nq, nb, 2)
+        self._dx = np.ascontiguousarray(scalar.dx)
+        vector_dofs = (3 * self._dofs[:, :, None] + np.arange(3)).reshape(self._dofs.shape[0], -1)
+        self._vector_dofs = vector_dofs
+        self._pattern = Pattern(vector_dofs, 3 * self.n_nodes)
 
     @property
     def n_nodes(self) -> int:
         return self.X.shape[0]
 
+    def _terms(self, x: np.ndarray, lam: float, order: int):
+        return element_terms(np.ascontiguousarray(x - self.X, dtype=float), self._dofs, self._grads,
+                             self._dx, LAW_IDS[self.law], float(lam), float(self.E), float(self.h),
+                             bool(self.tension_only), order)
+
     def deformation_gradient(self, x: np.ndarray) -> np.ndarray:
         """F (3, 2, nel, nqp) at the quadrature points for node positions x (nn, 3)."""
-        u = (x - self.X).ravel()
-        return np.eye(3, 2)[:, :, None, None] + self.basis.interpolate(u).grad
+        u = x - self.X
+        return np.eye(3, 2)[:, :, None, None] + np.einsum("eai,eqaj->ijeq", u[self._dofs], self._grads)
 
-    def law_state(self, x: np.ndarray, lam: float, order: int = 2) -> MembraneState:
-        """W, P = dW/dF and (order 2) A = d2W/dF2 at the quadrature points."""
+    def law_state(self, x: np.ndarray, lam: float, order: int = 1) -> MembraneState:
+        """F, W and (order 1) P = dW/dF at the quadrature points."""
         F = self.deformation_gradient(x)
-        shape = F.shape[2:]
-        flat = np.moveaxis(F, (0, 1), (-2, -1)).reshape(-1, 3, 2)
-        W = LAWS[self.law](Stretches(flat, order), lam, self.E, self.h, self.tension_only)
+        W = self._terms(x, lam, 0)[0]
         if order == 0:
-            return MembraneState(F, np.broadcast_to(W, (flat.shape[0],)).reshape(shape), None, None)
-        # contiguous (component, ..., element, point) arrays: the forms sweep them hundreds of times
-        P = np.ascontiguousarray(np.moveaxis(W.grad.reshape(*shape, 3, 2), (-2, -1), (0, 1)))
-        A = None
-        if order >= 2:
-            A = np.ascontiguousarray(
-                np.moveaxis(W.hess.reshape(*shape, 3, 2, 3, 2), (-4, -3, -2, -1), (0, 1, 2, 3)))
-        return MembraneState(F, W.val.reshape(shape), P, A)
+            return MembraneState(F, W, None)
+        flat = np.ascontiguousarray(np.moveaxis(F, (0, 1), (-2, -1)).reshape(-1, 3, 2))
+        P = point_stress(flat, LAW_IDS[self.law], float(lam), float(self.E), float(self.h),
+                         bool(self.tension_only))
+        return MembraneState(F, W, np.moveaxis(P.reshape(*F.shape[2:], 3, 2), (-2, -1), (0, 1)))
 
     def energy(self, x: np.ndarray, lam: float) -> float:
         """Strain energy (N mm)."""
-        st = self.law_state(x, lam, order=0)
-        return float(_energy_form.assemble(self.basis, W=st.W))
+        return float(self._terms(x, lam, 0)[1].sum())
 
     def evaluate(self, x: np.ndarray, lam: float, order: int = 2
                  ) -> tuple[float, np.ndarray, sp.csr_matrix | None]:
         """Energy (N mm), gradient (3 nn,) in N, and (order 2) the tangent (3 nn, 3 nn) in N/mm."""
-        st = self.law_state(x, lam, order)
-        e = float(_energy_form.assemble(self.basis, W=st.W))
-        g = _residual_form.assemble(self.basis, P=st.P)
-        K = _tangent_form.assemble(self.basis, A=st.A).tocsr() if order >= 2 else None
-        return e, g, K
+        _, We, fe, Ke = self._terms(x, lam, max(order, 1))
+        g = np.bincount(self._vector_dofs.ravel(), weights=fe.ravel(), minlength=3 * self.n_nodes)
+        K = self._pattern.matrix(Ke) if order >= 2 else None
+        return float(We.sum()), g, K
 
     def element_energy_density(self, x: np.ndarray, lam: float) -> np.ndarray:
         """Strain energy per unit flat area of each element (N/mm)."""
-        st = self.law_state(x, lam, order=0)
-        total = _energy_form.elemental(self.basis, W=st.W)
-        area = Functional(lambda w: 1.0 + 0.0 * w.x[0]).elemental(self.basis)
-        return total / area
+        return self._terms(x, lam, 0)[1] / self._dx.sum(axis=1)
 
     def principal_tensions(self, x: np.ndarray, lam: float) -> tuple[np.ndarray, np.ndarray]:
         """Principal membrane tensions (N/mm, current length; descending) and the area ratio J

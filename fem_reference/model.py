@@ -19,9 +19,9 @@ from skfem.helpers import dot as fdot
 from scenes import Scene
 
 from .frame import Rod, RodProperties, StencilTerms, scatter
-from .jet import Jet
 from .membrane import Membrane
 from .mesh import MembraneMesh, build_mesh
+from .rod_kernels import Jets
 
 ENERGY_PARTS = ("membrane", "frame_bending", "frame_torsion", "frame_axial")
 
@@ -102,23 +102,23 @@ class DemesProblem:
         return self.X.ravel().copy()
 
     # ------------------------------------------------------------------ energy
-    def _film_positions(self, x: np.ndarray):
-        """Membrane node positions (the film face at the frame) and the jet of the strip normals
-        that the offset map uses (None without an offset)."""
+    def _film_positions(self, x: np.ndarray, order: int = 2):
+        """Membrane node positions (the film face at the frame) and the strip normals with their
+        derivatives that the offset map uses (None without an offset; no derivatives with order 0)."""
         xm = x.copy()
         if self.offset == 0.0:
             return xm, None, None
         chain = self.mesh.frame_nodes
         xm[chain[self.held_chain], 2] += self.offset
-        n, ids = self.rod.normals(x, self.offset_nodes)
+        n, ids = self.rod.normals(x, self.offset_nodes, order)
         xm[chain[self.offset_nodes]] += self.offset * n.val
         return xm, n, ids
 
     def energy(self, y: np.ndarray) -> float:
         """Total energy (N mm) at positions y (3 nn,)."""
         x = y.reshape(-1, 3)
-        xm, _, _ = self._film_positions(x)
-        rod = self.rod.evaluate(x, order=1)[0]
+        xm, _, _ = self._film_positions(x, order=0)
+        rod = self.rod.evaluate(x, order=0)[0]
         return self.membrane.energy(xm, self.lam) + sum(rod.values())
 
     def evaluate(self, y: np.ndarray, order: int = 2) -> Evaluation:
@@ -161,13 +161,13 @@ class DemesProblem:
         """sum_b offset * f_b . d2 n_b / dy2, f_b the membrane force on the film at node b."""
         f = g_m.reshape(-1, 3)[self.mesh.frame_nodes[self.offset_nodes]]
         H = self.offset * np.einsum("sc,scij->sij", f, n.hess)
-        term = StencilTerms(Jet(np.zeros(len(f)), np.zeros(H.shape[:2]), H), ids)
+        term = StencilTerms(Jets(np.zeros(len(f)), np.zeros(H.shape[:2]), H), ids)
         _, K = scatter([term], self.rod.n_points, 2)
         return (self.rod.B3.T @ K @ self.rod.B3).tocsr()
 
     def film_positions(self, y: np.ndarray) -> np.ndarray:
         """Where the membrane nodes are (nn, 3): boundary nodes moved onto the film face."""
-        return self._film_positions(y.reshape(-1, 3))[0]
+        return self._film_positions(y.reshape(-1, 3), order=0)[0]
 
 
 class RodProblem:
@@ -183,7 +183,7 @@ class RodProblem:
         self.mass = sp.diags(np.repeat(np.maximum(lengths, 1e-12), 3)).tocsr()
 
     def energy(self, y: np.ndarray) -> float:
-        return sum(self.rod.evaluate(y.reshape(-1, 3), order=1)[0].values()) - self.loads @ y
+        return sum(self.rod.evaluate(y.reshape(-1, 3), order=0)[0].values()) - self.loads @ y
 
     def evaluate(self, y: np.ndarray, order: int = 2) -> Evaluation:
         parts, g, K = self.rod.evaluate(y.reshape(-1, 3), order)

@@ -1,7 +1,7 @@
 """Newton's method for energy minimisation, with inertia and lowest-mode checks.
 
-The tangent is factorised as L D L^T (SuperLU with diagonal pivoting in symmetric mode, after a
-symmetric Jacobi scaling); by Sylvester's law the signs of D give the number of negative
+The tangent is factorised as L D L^T (QDLDL, diagonal pivots in an AMD order kept per sparsity
+pattern, after a symmetric Jacobi scaling); by Sylvester's law the signs of D give the number of negative
 eigenvalues, so an indefinite tangent is seen at no extra cost. Where the tangent is not positive
 definite the step uses K + mu M (M the consistent mass matrix, mu raised until the factor is
 positive), so every step is a descent direction; a backtracking line search on the total energy
@@ -19,6 +19,7 @@ import numpy as np
 import scipy.linalg
 import scipy.sparse as sp
 import scipy.sparse.linalg as sla
+import qdldl
 
 DENSE_EIGEN_LIMIT = 4000
 """Free DOFs up to which a dense eigensolver is the last resort for the lowest mode (0.6 s at
@@ -60,36 +61,122 @@ class Factor:
     n: int
 
 
+@dataclass
+class _Pattern:
+    """A fixed upper-triangular sparsity pattern (CSC) and the QDLDL solver made on it."""
+
+    keys: np.ndarray  # col * n + row of its entries, ascending (CSC order)
+    indptr: np.ndarray
+    indices: np.ndarray
+    solver: qdldl.Solver | None = None
+
+
+class _Symbolic:
+    """QDLDL solvers by matrix size: a Newton path factorises matrices of one structure hundreds
+    of times, and the fill-reducing ordering and elimination tree are made once.
+
+    Each size keeps one upper-triangular pattern, the union of the structures seen (entries of
+    a tangent that happen to be zero drop out of scipy's sums, and the mass matrix has fewer);
+    a matrix is scattered into it, and only an entry outside it makes a new symbolic factor.
+    A solver holds the latest numeric factor only: its stamp counts the factorisations, so
+    that a stale factor is refused instead of silently used.
+    """
+
+    SIZE = 4
+
+    def __init__(self) -> None:
+        self._patterns: dict[int, _Pattern] = {}
+        self._stamps: dict[int, int] = {}
+
+    def factorise(self, A: sp.csc_matrix) -> tuple[qdldl.Solver, int]:
+        """Factorise the symmetric A (CSC with sorted indices)."""
+        n = A.shape[0]
+        cols = np.repeat(np.arange(n, dtype=np.int64), np.diff(A.indptr))
+        upper = A.indices <= cols
+        keys = cols[upper] * n + A.indices[upper]
+        values = A.data[upper]
+        pattern = self._patterns.pop(n, None)
+        if pattern is None:
+            pattern = self._new_pattern(keys, n)
+        pos = np.minimum(np.searchsorted(pattern.keys, keys), pattern.keys.size - 1)
+        if not np.array_equal(pattern.keys[pos], keys):  # an entry outside: a new symbolic factor
+            self._stamps.pop(id(pattern.solver), None)
+            pattern = self._new_pattern(np.union1d(pattern.keys, keys), n)
+            pos = np.searchsorted(pattern.keys, keys)
+        data = np.zeros(pattern.keys.size)
+        data[pos] = values
+        U = sp.csc_matrix((data, pattern.indices, pattern.indptr), shape=(n, n))
+        if pattern.solver is None:
+            pattern.solver = qdldl.Solver(U, upper=True)
+        else:
+            pattern.solver.update(U, upper=True)
+        self._patterns[n] = pattern  # most recent last
+        if len(self._patterns) > self.SIZE:
+            self._stamps.pop(id(self._patterns.pop(next(iter(self._patterns))).solver), None)
+        stamp = self._stamps.get(id(pattern.solver), 0) + 1
+        self._stamps[id(pattern.solver)] = stamp
+        return pattern.solver, stamp
+
+    @staticmethod
+    def _new_pattern(keys: np.ndarray, n: int) -> _Pattern:
+        cols, rows = np.divmod(keys, n)
+        indptr = np.searchsorted(cols, np.arange(n + 1)).astype(np.int64)
+        return _Pattern(keys, indptr, rows.astype(np.int64))
+
+    def current(self, solver: qdldl.Solver, stamp: int) -> bool:
+        return self._stamps.get(id(solver)) == stamp
+
+
+_SYMBOLIC = _Symbolic()
+
+
 def factor(A: sp.spmatrix) -> Factor:
-    """L D L^T of a symmetric sparse matrix, with the count of negative eigenvalues.
+    """L D L^T of a symmetric sparse matrix (QDLDL: diagonal pivots in a fill-reducing order,
+    after a symmetric Jacobi scaling), with the count of negative eigenvalues (Sylvester).
+
+    The factor is valid until the next call on a matrix of the same sparsity pattern.
 
     Raises
     ------
     NotFactorizable
-        If A is singular (a zero pivot).
+        If A is singular (a zero pivot) or has a zero on its diagonal.
     """
     A = sp.csc_matrix(A)
+    A.sort_indices()
     d = np.abs(A.diagonal())
-    d[d == 0.0] = 1.0
+    if np.any(d == 0.0):  # no diagonal pivot there: the inertia is out of reach
+        raise NotFactorizable("zero diagonal entry")
     s = 1.0 / np.sqrt(d)
-    S = sp.diags(s)
+    scaled = A.copy()
+    scaled.data *= s[scaled.indices] * np.repeat(s, np.diff(scaled.indptr))
     try:
-        lu = sla.splu((S @ A @ S).tocsc(), permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0,
-                      options={"SymmetricMode": True})
-    except RuntimeError as exc:
+        solver, stamp = _SYMBOLIC.factorise(scaled)
+    except RuntimeError as exc:  # a zero pivot
         raise NotFactorizable(str(exc)) from None
-    if not np.array_equal(lu.perm_r, lu.perm_c):  # an off-diagonal pivot: inertia unknown
-        raise NotFactorizable("the factorisation needed off-diagonal pivots")
-    pivots = lu.U.diagonal()
+    pivots = solver.factors()[1]
     if not np.all(np.isfinite(pivots)) or np.any(pivots == 0.0):
         raise NotFactorizable("zero or non-finite pivot")
-    return Factor(lambda b: s * lu.solve(s * b), int(np.count_nonzero(pivots < 0)), A.shape[0])
+
+    def solve(b: np.ndarray) -> np.ndarray:
+        if not _SYMBOLIC.current(solver, stamp):
+            raise RuntimeError("this factor was overwritten by a later one of the same pattern")
+        return s * solver.solve(s * b)
+
+    return Factor(solve, int(np.count_nonzero(pivots < 0)), A.shape[0])
 
 
-def positive_shift(K: sp.spmatrix, M: sp.spmatrix, start: float) -> tuple[float, Factor, int]:
-    """Smallest tried mu >= 0 (0, then start * 10^k) with K + mu M positive definite, its factor,
-    and the number of negative eigenvalues of K itself (-1 if K is singular)."""
+def positive_shift(K: sp.spmatrix, M: sp.spmatrix, start: float, resume: float = 0.0
+                   ) -> tuple[float, Factor, int]:
+    """Smallest tried mu >= 0 (0, then start * 10^k from ``resume`` on) with K + mu M positive
+    definite, its factor, and the number of negative eigenvalues of K itself (-1 if K is
+    singular).
+
+    ``resume``: skip the rungs of the ladder below it (a Newton solve passes a tenth of its
+    previous shift: the curvature it has to overcome changes little from one step to the next,
+    and each rung is a factorisation).
+    """
     mu, negative = 0.0, -1
+    rung = start * 10.0 ** max(0, int(np.floor(np.log10(resume / start) + 1e-9))) if resume > start else start
     for _ in range(40):
         try:
             f = factor(K + mu * M if mu > 0 else K)
@@ -99,7 +186,7 @@ def positive_shift(K: sp.spmatrix, M: sp.spmatrix, start: float) -> tuple[float,
                 return mu, f, negative
         except NotFactorizable:
             pass
-        mu = start if mu == 0.0 else 10.0 * mu
+        mu = rung if mu == 0.0 else 10.0 * mu
     raise NotFactorizable("no shift made the tangent positive definite")
 
 
@@ -177,6 +264,7 @@ def newton(problem: Problem, y0: np.ndarray, tol: float = 1e-10, max_iterations:
     history: list[float] = []
     shifted = 0
     start_shift = None
+    mu = 0.0
     last_step = np.inf
     for it in range(max_iterations + 1):
         ev = problem.evaluate(y, 2)
@@ -201,7 +289,7 @@ def newton(problem: Problem, y0: np.ndarray, tol: float = 1e-10, max_iterations:
         if deadline is not None and time.perf_counter() > deadline:
             return NewtonResult(y, False, "time_limit", it, r, history, ev.total, -1, shifted)
         try:
-            mu, f, negative = positive_shift(Kff, Mff, start_shift)
+            mu, f, negative = positive_shift(Kff, Mff, start_shift, 0.1 * mu)
         except NotFactorizable:
             return NewtonResult(y, False, "diverged", it, r, history, ev.total, -1, shifted)
         if negative != 0 and r < saddle:

@@ -1,7 +1,8 @@
 """Continuation in pre-stretch from the flat state, stability checks, and the ``Result`` of a state.
 
 Path: lambda = 1 is the flat, stress-free state. Each continuation step raises lambda by at most
-``MAX_STEP`` and solves by Newton from a secant predictor (the first step from the scene's
+``MAX_STEP`` and solves by Newton from a tangent predictor, K dy/dlambda = -dg/dlambda at the
+last state (a secant where that tangent cannot be factorised; the first step from the scene's
 smooth apex-up lift, as the DR starts; if that ends apex down, from the flat state); a failed
 step is halved, and where the branch ends (a limit point) a long Newton solve looks for the state
 it snaps to. Every converged state's tangent is checked: while it has a negative eigenvalue (the
@@ -27,7 +28,7 @@ from scenes.scene import integer_at_least, prestretch_list
 
 from .contact import Contact, frame_contact, membrane_fold
 from .model import DemesProblem
-from .newton import NewtonResult, NotFactorizable, lowest_mode, newton
+from .newton import NewtonResult, NotFactorizable, lowest_mode, newton, positive_shift, shift_scale
 from .output import blocks, compressed_fraction, paper_formula_membrane_energy, slack_fractions
 
 FIRST_STEP = 0.01
@@ -38,7 +39,7 @@ SADDLE = 1e-4  # residual below which an indefinite tangent means a saddle is ne
 MIN_STEP = 1e-4
 TOLERANCE = 1e-8  # largest free nodal force / largest membrane nodal force (round-off floor ~1e-10)
 MAX_EIGEN_STEPS = 6
-CONTACT_BISECTIONS = 5
+CONTACT_BRACKET = 1e-3  # first contact is located to within this pre-stretch interval
 
 
 @dataclass
@@ -194,15 +195,37 @@ class Continuation:
     def _predictor(self, lam: float) -> np.ndarray:
         if self.lam == 1.0:  # the scene's lift, as the DR starts
             return self.problem.initial_guess()
+        tangent = self._path_tangent()
+        if tangent is not None:
+            return self.y + tangent * (lam - self.lam)
         if self.previous is None:
             return self.y
         lam0, y0 = self.previous
         return self.y + (self.y - y0) * (lam - self.lam) / (self.lam - lam0)
 
+    def _path_tangent(self) -> np.ndarray | None:
+        """dy/dlambda at the current state: K dy = -dg/dlambda (central difference in lambda)."""
+        pb, h = self.problem, 1e-6
+        f = pb.free
+        grads = []
+        for lam in (self.lam + h, self.lam - h):
+            pb.lam = lam
+            grads.append(pb.evaluate(self.y, 1).gradient[f])
+        pb.lam = self.lam
+        K = pb.evaluate(self.y, 2).tangent[f][:, f].tocsc()
+        M = pb.mass[f][:, f].tocsc()
+        try:
+            _, fac, _ = positive_shift(K, M, shift_scale(K, M))
+        except NotFactorizable:
+            return None
+        dy = np.zeros(pb.n_dofs)
+        dy[f] = -fac.solve((grads[0] - grads[1]) / (2 * h))
+        return dy
+
     def _bisect_contact(self, bad: float) -> tuple[float, float]:
         """Narrow the first contact between the current state and ``bad``; moves to the last
-        contact-free state found."""
-        for _ in range(CONTACT_BISECTIONS):
+        contact-free state found; the bracket ends narrower than CONTACT_BRACKET."""
+        while bad - self.lam > CONTACT_BRACKET:
             mid = 0.5 * (self.lam + bad)
             nr, _, _ = self.solve_at(mid, self.y)
             if nr.converged and self.contact(nr.y) is None:
@@ -238,7 +261,7 @@ class Continuation:
                 lam = target
             nr, pushes, _ = self.solve_at(lam, self._predictor(lam))
             if not nr.converged or (self.lam == 1.0 and self._apex_up(nr.y) < 0):
-                # retry: without the secant; or, off the lift, from the flat state, whose
+                # retry: without the predictor; or, off the lift, from the flat state, whose
                 # instability is met by an eigenmode step (apex up)
                 retry = self.problem.initial_guess(lift=False) if self.lam == 1.0 else self.y
                 nr, pushes, _ = self.solve_at(lam, retry)

@@ -5,6 +5,7 @@ through the measures defined once in :mod:`results.metrics`.
 """
 
 from .atomic import atomic_write, atomic_write_text
+from .labels import level_label
 from .state import ENERGY_DEFINITION, ENERGY_KEYS, SUMMARY_COLUMNS, Result
 from .store import load_result, save_result
 from .vtk import CellBlock, write_pvd, write_vtu
@@ -21,4 +22,5 @@ __all__ = [
     "atomic_write_text",
     "save_result",
     "load_result",
+    "level_label",
 ]

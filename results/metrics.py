@@ -1,4 +1,4 @@
-"""Measures of a DEMES state, defined once for every solver (DESIGN.md, 'Definitions').
+"""Measures of a DEMES state, defined once for every solver (docs/metrics.md).
 
 All take frame-centreline data: node positions (k, 3) in mm ordered along the closed frame, and
 their reference (flat) arc lengths s (k,) in mm, starting at the base midpoint.
@@ -57,7 +57,13 @@ def bending_angle(x: np.ndarray, s: np.ndarray, length: float, s_apex: float, si
 
 def nearest_turn(angle: float, previous: float) -> float:
     """``angle`` (deg) plus the whole turns that bring it nearest ``previous``: a sweep's next
-    state is read as the continuation of the one before."""
+    state is read as the continuation of the one before.
+
+    >>> nearest_turn(-79.0, previous=266.8)        # a curl past 270 deg, not a dip
+    281.0
+    >>> nearest_turn(10.0, previous=-20.0)
+    10.0
+    """
     return float(angle + 360.0 * np.round((previous - angle) / 360.0))
 
 

@@ -205,10 +205,11 @@ class FrameSpec(_Section):
     vertices: Any = spec(None, vertex_list, "mm", "polygon corners (outline = 'polygon')")
     corner_radius: float = spec(5.0, non_negative, "mm", "fillet radius at every corner")
     model: str = spec(
-        "paper",
-        one_of("paper", "strip"),
+        "strip",
+        one_of("strip", "paper"),
         "",
-        "'paper': isotropic spline beam with I; 'strip': weak/strong-axis bending and torsion",
+        "'strip': weak/strong-axis bending and torsion (curls); 'paper': Table I's isotropic beam with I "
+        "(collapses in-plane, docs/elements.md)",
     )
     film_offset: bool = spec(
         False, boolean, "", "film bonded on one face: membrane forces act at t/2 off the centreline"

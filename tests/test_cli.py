@@ -17,6 +17,7 @@ def test_demes_solve_writes_table_csv_and_vtk_series(tmp_path, capsys):
     assert code == 0
     printed = capsys.readouterr().out
     assert "theta[deg]" in printed and "width[mm]" in printed
+    assert (out / "dr_strip.png").stat().st_size > 0
     with open(out / "dr_strip.csv") as f:
         rows = list(csv.DictReader(f))
     assert [float(r["prestretch"]) for r in rows] == [1.0, 1.2]

@@ -38,7 +38,7 @@ def test_elastica_tip_within_half_percent_at_40_segments(alpha):
 
 
 def test_elastica_converges_at_second_order():
-    """The moving-ghost clamp and the spline beam are second-order accurate (DESIGN.md)."""
+    """The moving-ghost clamp and the spline beam are second-order accurate (docs/elements.md)."""
     x_ref, z_ref, _ = elastica_cantilever(3.0)
     errors = []
     for n in (10, 20, 40):

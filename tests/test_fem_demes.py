@@ -12,7 +12,7 @@ import fem_reference
 import scenes
 from fem_reference.contact import frame_contact, segment_distances
 from fem_reference.frame import Rod, RodProperties
-from fem_reference.jet import Jet, cross, dot, unit
+from fem_reference.rod_kernels import PAPER, STRIP, split, vertex_normals, vertex_terms
 from fem_reference.model import DemesProblem
 from results import ENERGY_KEYS
 
@@ -126,6 +126,43 @@ def test_membrane_stress_of_flat_prestretch():
     assert np.allclose(tensions, 1.5 * 1.0 * 0.05 * 0.3)
 
 
+def test_film_pull_acts_on_the_strip_at_the_film_offset_lever():
+    """Pre-stretched film bonded on the strip's top face (offset d = t/2): through the offset map
+    each frame node's film pull f acts on the strip as the couple d n x f, d |f| about the side
+    (the moment of the forces it puts on the stencil points: centreline nodes and director
+    points; n tilts by the film's lift over the lever, so to O(tilt^2)), and f
+    is the film's pre-stress (T0 = 1.5 E h (lambda - 1) per unit length, here within the strain
+    that the film's lift to z = d over the b/2 lever puts in it)."""
+    lam = 1.3
+    scene = coarse("strip", **{"frame.film_offset": True, "mesh.divisions": 8})
+    pb = DemesProblem(scene, 0, "P1")
+    pb.lam = lam
+    x = pb.initial_guess(lift=False).reshape(-1, 3)
+    xm, normals, ids = pb._film_positions(x)
+    _, g_m, _ = pb.membrane.evaluate(xm, lam, 1)
+    outline = scene.outline
+    centre, tangent = outline.evaluate(np.array(outline.mid_height_arc_lengths()[:1]))
+    t = np.r_[tangent[0], 0.0]
+    ring = pb.mesh.frame_nodes
+    chain = ring[pb.offset_nodes]
+    along = (x[chain, :2] - centre[0]) @ t[:2]
+    across = (x[chain, :2] - centre[0]) @ np.array([-t[1], t[0]])
+    middle = np.flatnonzero((np.abs(along) < 12.0) & (np.abs(across) < 1e-9))
+    pull = -g_m.reshape(-1, 3)[chain[middle]]  # the film's force on the strip (N)
+    pos = pb.offset_nodes[middle]  # chain positions: half the chords to both neighbours
+    tributary = 0.5 * np.linalg.norm(x[ring[(pos + 1) % ring.size]] - x[ring[pos - 1]], axis=1)
+    T0 = 1.5 * scene.membrane.E * scene.membrane.thickness * (lam - 1.0)
+    tilt = pb.offset / (0.5 * scene.frame.width)
+    assert np.linalg.norm(pull, axis=1) == pytest.approx(T0 * tributary, rel=5 * tilt**2)
+    d, points = pb.offset, pb.rod.B @ x
+    for k, f in zip(middle, pull):
+        forces = d * np.einsum("c,cj->j", f, normals.grad[k]).reshape(-1, 3)  # on the 5 stencil points
+        couple = np.cross(points[ids[k]], forces).sum(axis=0)
+        assert couple == pytest.approx(d * np.cross(normals.val[k], f), rel=1e-9, abs=1e-12 * d * np.linalg.norm(f))
+        assert abs(couple @ t) == pytest.approx(d * np.linalg.norm(f), rel=tilt**2)  # lever d, about the side
+        assert np.abs(forces.sum(axis=0)).max() < 1e-12 * np.linalg.norm(f)  # a pure couple
+
+
 def test_frame_contact_finds_a_crossing_and_ignores_a_circle():
     t = np.linspace(0, 2 * np.pi, 200, endpoint=False)
     circle = np.column_stack([np.cos(t), np.sin(t), np.zeros_like(t)])
@@ -147,23 +184,36 @@ def test_segment_distance_against_sampling():
     assert np.all(d <= brute + 1e-12) and np.all(brute - d < 1e-4)
 
 
-def test_jet_matches_finite_differences():
+@pytest.mark.parametrize("model", [PAPER, STRIP])
+def test_rod_stencil_derivatives_match_finite_differences(model):
+    """The compiled forward-mode derivatives of the vertex energies and strip normals against
+    central differences of the values (one stencil with a held edge, one free)."""
     rng = np.random.default_rng(6)
-    v = rng.standard_normal((4, 2, 3))
+    S = 2
+    P = np.array([[-1.0, 0.0, 0.0], [0.0, 0.0, 0.0], [1.0, 0.2, 0.0], [-0.5, 1.0, 0.0], [0.5, 1.0, 0.0]])
+    P = P + 0.2 * rng.standard_normal((S, 5, 3))
+    held_a, held_b = np.array([True, False]), np.zeros(S, bool)
+    rest = np.tile(np.eye(3), (S, 1, 1))
+    kappa0 = 0.1 * rng.standard_normal((S, 3))
+    w = np.array([0.7, 1.3])
 
-    def f(J):
-        a, b = J[:, 0], J[:, 1]
-        return dot(unit(cross(a, b)), a) + dot(a, b).sqrt() / (1.0 + dot(b, b))
+    def energy(Q, order):
+        _, b, t = vertex_terms(Q, held_a, held_b, rest, rest, kappa0, w, model, 2.0, 5.0, 1.5, True, order)
+        return b + t
 
-    J = f(Jet.variables(v + [0.0, 0.0, 3.0]))
+    def normals(Q, order):
+        return vertex_normals(Q, held_a, held_b, rest, rest, order)
+
     h = 1e-5
-    for i in range(6):
-        e = np.zeros(6)
-        e[i] = h
-        vp = f(Jet.variables(v + [0.0, 0.0, 3.0] + e.reshape(2, 3)))
-        vm = f(Jet.variables(v + [0.0, 0.0, 3.0] - e.reshape(2, 3)))
-        assert np.allclose((vp.val - vm.val) / (2 * h), J.grad[:, i], atol=1e-8)
-        assert np.allclose((vp.grad - vm.grad) / (2 * h), J.hess[:, i], atol=1e-7)
+    for f in (energy, normals):
+        jets = split(f(P, 2))
+        for i in range(15):
+            e = np.zeros(15)
+            e[i] = h
+            up, down = P + e.reshape(5, 3), P - e.reshape(5, 3)
+            assert np.allclose((f(up, 0)[..., 0] - f(down, 0)[..., 0]) / (2 * h), jets.grad[..., i], atol=1e-7)
+            assert np.allclose((split(f(up, 2)).grad - split(f(down, 2)).grad) / (2 * h), jets.hess[..., i],
+                               atol=1e-6)
 
 
 def test_richardson_recovers_order_and_limit():

@@ -13,20 +13,13 @@ from validation.plan import MATCHED, REFERENCE, build_plan
 from validation.validate import validate
 
 
-@pytest.fixture(scope="module")
-def report(tmp_path_factory):
-    out = tmp_path_factory.mktemp("report")
-    files = validate(scenes.load("demes_paper"), out, quick=True, workers=2, progress=False)
-    return out, files
-
-
 def read_csv(path):
     with open(path) as f:
         return list(csv.DictReader(f))
 
 
 def test_report_files_exist_and_html_is_self_contained(report):
-    out, files = report
+    out, files, _ = report
     for name in ("index.html", "report.md", "states.csv", "headline.csv", "speed.csv", "time_to_error.csv",
                  "error_budget.csv", "hard_cases.csv", "reference.csv", "metrics.json"):
         assert (out / name).stat().st_size > 0, name
@@ -40,7 +33,7 @@ def test_report_files_exist_and_html_is_self_contained(report):
 
 
 def test_report_numbers_equal_direct_solver_calls(report):
-    out, _ = report
+    out, _, _ = report
     plan = build_plan(quick=True)
     rows = {float(r["prestretch"]): r for r in read_csv(out / "headline.csv")}
     base = scenes.load("demes_paper")
@@ -56,7 +49,7 @@ def test_report_numbers_equal_direct_solver_calls(report):
 
 
 def test_reference_is_the_richardson_extrapolation_of_the_levels(report):
-    out, _ = report
+    out, _, _ = report
     rows = [r for r in read_csv(out / "reference.csv") if r["quantity"] == "bending_angle"]
     assert rows
     for r in rows:
@@ -65,7 +58,7 @@ def test_reference_is_the_richardson_extrapolation_of_the_levels(report):
 
 
 def test_every_hard_case_has_an_outcome(report):
-    out, _ = report
+    out, _, _ = report
     rows = read_csv(out / "hard_cases.csv")
     cases = {r["case"] for r in rows}
     assert {"zero_prestretch", "stiff_frame", "soft_frame", "coarse_mesh", "asymmetric", "square_frame",
@@ -77,7 +70,7 @@ def test_every_hard_case_has_an_outcome(report):
 
 
 def test_interrupted_validation_redoes_only_what_is_missing(report):
-    out, _ = report
+    out, _, _ = report
     runs = out / "runs"
     stamps = {p.parent.name: p.stat().st_mtime_ns for p in runs.glob("*/run.json")}
     # simulate an interruption inside one DR sweep: its record and its last state are gone
@@ -105,3 +98,48 @@ def test_csv_has_a_column_for_every_key_of_every_row(tmp_path):
     write_csv(tmp_path / "t.csv", rows)
     back = read_csv(tmp_path / "t.csv")
     assert back[1]["r2"] == "48.698" and back[0]["r2"] == ""
+
+
+class _State:
+    """The few fields of a Result that the branch check reads: a frame curve offset by ``move``."""
+
+    def __init__(self, move: float, stable: bool = True):
+        self.prestretch, self.converged = 1.5, True
+        self.info = {"stable": stable, "lowest_eigenvalue_N_per_mm3": 1e-5 if stable else -1e-5}
+        self.move = move
+        self.scene = scenes.load("demes_paper")
+
+    def frame_curve(self, samples):
+        return np.column_stack([np.linspace(0, 1, samples), np.zeros(samples), np.full(samples, self.move)])
+
+
+def test_branch_check_reports_a_level_that_jumps_and_one_that_is_unstable():
+    from validation.analysis import branch_check
+
+    side = scenes.load("demes_paper").outline.side_length
+    converging = [_State(0.0), _State(4.0), _State(5.0), _State(5.25)]  # moves 4, 1, 0.25 mm
+    assert [r["branch"] for r in branch_check(converging, (0, 1, 2, 3))] == ["first", "same", "same", "same"]
+    assert branch_check(converging, (0, 1, 2, 3))[2]["move"] == pytest.approx(1.0 / side)
+    jumped = [_State(0.0), _State(4.0), _State(5.0), _State(-20.0)]
+    assert branch_check(jumped, (0, 1, 2, 3))[-1]["branch"] == "jump"
+    unstable = [_State(0.0), _State(4.0, stable=False)]
+    assert branch_check(unstable, (0, 1))[-1]["branch"] == "unstable"
+
+
+def test_first_contact_extrapolates_the_levels_brackets():
+    from types import SimpleNamespace
+
+    from validation.analysis import first_contact
+
+    exact, levels = 1.9, (0, 1, 2)
+    states = {}
+    for k in levels:  # contact converging at second order, each bracketed to 1e-3
+        mid = exact + 0.08 * 4.0**-k
+        states[f"fem_r{k}"] = {1.5: SimpleNamespace(info={}),
+                               2.0: SimpleNamespace(info={"first_contact_prestretch": (mid - 5e-4, mid + 5e-4)})}
+    plan = SimpleNamespace(reference_levels=levels)
+    rows = first_contact(plan, states)
+    assert [r["level"] for r in rows] == ["r0", "r1", "r2", "extrapolated"]
+    assert rows[-1]["value"] == pytest.approx(exact, abs=1e-12)
+    assert rows[-1]["order"] == pytest.approx(2.0)
+    assert rows[-1]["error"] >= 5e-4

@@ -4,6 +4,7 @@ error budget and hard cases. Everything here reads stored states; nothing is sol
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from itertools import takewhile
 from pathlib import Path
 from typing import Any
 
@@ -11,7 +12,9 @@ import numpy as np
 
 from results import Result
 
-from .compare import Reference, build_reference, state_metrics
+from fem_reference import richardson
+
+from .compare import CURVE_SAMPLES, Reference, build_reference, state_metrics
 from .plan import Plan, Run
 from .runner import load_states, run_record
 from .sweep import not_reached
@@ -36,6 +39,8 @@ class Analysis:
     budget: list[dict[str, Any]] = field(default_factory=list)
     hard: list[dict[str, Any]] = field(default_factory=list)
     reference_rows: list[dict[str, Any]] = field(default_factory=list)
+    branch_rows: list[dict[str, Any]] = field(default_factory=list)
+    first_contact: list[dict[str, Any]] = field(default_factory=list)
 
 
 def analyse(plan: Plan, out_dir: Path) -> Analysis:
@@ -43,14 +48,14 @@ def analyse(plan: Plan, out_dir: Path) -> Analysis:
     states = {r.label: load_states(out_dir / "runs" / r.label, r.prestretches) for r in plan.runs}
     records = {r.label: run_record(out_dir / "runs" / r.label) or {} for r in plan.runs}
     references = {}
+    branch_rows = []
     for lam in plan.sweep:
-        # the consecutive levels from the coarsest that have this state
-        levels: list[Result] = []
-        for k in plan.reference_levels:
-            s = states[f"fem_r{k}"].get(lam)
-            if s is None:
-                break
-            levels.append(s)
+        rows = branch_check([states[f"fem_r{k}"].get(lam) for k in plan.reference_levels], plan.reference_levels)
+        branch_rows += rows
+        # the consecutive levels from the coarsest on the branch the coarser ones are on: a level
+        # that jumped is reported (branch table), not extrapolated with the others
+        on_branch = takewhile(lambda r: r["branch"] in ("first", "same"), rows)
+        levels = [states[f"fem_r{r['level']}"][lam] for r in on_branch]
         ref = build_reference(plan.reference_levels, levels)
         if ref is not None:
             references[lam] = ref
@@ -63,7 +68,8 @@ def analyse(plan: Plan, out_dir: Path) -> Analysis:
         dr_states = [states[_speed_label(n, tight)].get(plan.speed_prestretch) for n in chain]
         if all(s is not None for s in dr_states):
             dr_limit = build_reference(tuple(range(len(chain))), dr_states)
-    a = Analysis(plan, states, records, references, dr_limit)
+    a = Analysis(plan, states, records, references, dr_limit, branch_rows=branch_rows)
+    a.first_contact = first_contact(plan, states)
     _state_rows(a)
     _headline(a)
     _speed(a)
@@ -240,3 +246,54 @@ def _reference_rows(a: Analysis) -> None:
         for q, values in ref.level_values.items():
             a.reference_rows.append({"prestretch": lam, "quantity": q, **{f"r{k}": v for k, v in zip(ref.levels, values)},
                                      "order": ref.orders[q], "extrapolated": ref.values[q], "error": ref.errors[q]})
+
+
+BRANCH_JUMP = 1.5
+"""A level whose frame curve moved more from the previous level than that one did from its own
+previous level, by this factor, is off the converging sequence: a branch jump (or a level outside
+the asymptotic range), reported and not extrapolated."""
+
+
+def branch_check(states: list[Result | None], levels: tuple[int, ...]) -> list[dict[str, Any]]:
+    """Per level (coarse to fine, one pre-stretch): stability, lowest eigenvalue and the frame
+    curve's largest move from the previous level (/ side); 'branch' is 'first', 'same', 'jump',
+    'unstable' or 'not converged'. Levels after a missing state are left out."""
+    rows: list[dict[str, Any]] = []
+    previous_curve, previous_move = None, None
+    for k, res in zip(levels, states):
+        if res is None:
+            break
+        row = {"prestretch": res.prestretch, "level": k, "stable": bool(res.info.get("stable", False)),
+               "lowest_eigenvalue": res.info.get("lowest_eigenvalue_N_per_mm3", np.nan), "move": np.nan}
+        if not res.converged:
+            row["branch"] = "not converged"
+        elif res.prestretch > 1.0 and not row["stable"]:
+            row["branch"] = "unstable"
+        else:
+            curve = res.frame_curve(CURVE_SAMPLES)
+            if previous_curve is not None:
+                row["move"] = float(np.linalg.norm(curve - previous_curve, axis=1).max() / res.scene.outline.side_length)
+            jumped = previous_move is not None and row["move"] > BRANCH_JUMP * previous_move + 1e-9
+            row["branch"] = "first" if previous_curve is None else ("jump" if jumped else "same")
+            previous_curve, previous_move = curve, row["move"] if np.isfinite(row["move"]) else None
+        rows.append(row)
+    return rows
+
+
+def first_contact(plan: Plan, states: dict[str, dict[float, Result]]) -> list[dict[str, Any]]:
+    """First frame-frame or frame-film contact per FEM level (the bracket its path found) and its
+    refined value: Richardson over the levels that found one (observed order with three), the
+    error estimate plus half the finest bracket."""
+    rows = []
+    for k in plan.reference_levels:
+        brackets = [r.info["first_contact_prestretch"] for r in states[f"fem_r{k}"].values()
+                    if "first_contact_prestretch" in r.info]
+        if brackets:
+            free, hit = brackets[0]
+            rows.append({"level": f"r{k}", "last_free": free, "first_contact": hit, "value": 0.5 * (free + hit),
+                         "error": 0.5 * (hit - free), "order": np.nan})
+    if len(rows) >= 2:
+        est = richardson([r["value"] for r in rows])
+        rows.append({"level": "extrapolated", "value": est.extrapolated, "error": est.error + rows[-1]["error"],
+                     "order": est.order, "levels": [r["level"] for r in rows]})
+    return rows

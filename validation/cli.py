@@ -10,7 +10,7 @@ from pathlib import Path
 from typing import Any, Sequence
 
 import scenes
-from results import atomic_write_text
+from results import Result, atomic_write_text
 from scenes import DemesError
 from scenes.scene import prestretch_list
 
@@ -69,7 +69,8 @@ def _common(p: argparse.ArgumentParser, out_default: str) -> None:
     p.add_argument("--prestretch", type=float, nargs="+", help="pre-stretch ratios, e.g. 1.1 1.3 1.5 (default: the scene's sweep)")
     p.add_argument("--out", default=out_default, help=f"output folder (default: {out_default})")
     p.add_argument("--set", action="append", metavar="KEY=VALUE", help="change a scene field, e.g. --set mesh.divisions=20")
-    p.add_argument("--frame-model", choices=("paper", "strip"), help="override frame.model")
+    p.add_argument("--frame-model", choices=("strip", "paper"),
+                   help="frame.model: 'strip' (the scene's default, the real strip) or 'paper' (Table I's isotropic beam)")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
 
 
@@ -95,7 +96,19 @@ def _run_solver(args: argparse.Namespace, solver: str) -> int:
     text = print_table(results, title) + stop_notes(results, lams)
     atomic_write_text(out / f"{label}.txt", text + "\n")
     print(f"wrote {out / (label + '.csv')}, {out / (label + '.pvd')} and {len(results)} .vtu states")
+    if results:
+        _render(results, out / f"{label}.png", title)
     return 0 if all(r.converged for r in results) else 2
+
+
+def _render(results: Sequence[Result], path: Path, title: str) -> None:
+    """A PNG of the states beside the CSV; a machine that cannot render says why and goes on."""
+    from results.render import RenderUnavailable, render_states
+
+    try:
+        print(f"wrote {render_states(results, path, title)}")
+    except RenderUnavailable as exc:
+        print(f"demes: no picture: {exc}", file=sys.stderr)
 
 
 def cmd_solve(args: argparse.Namespace) -> int:

@@ -1,4 +1,5 @@
-"""The extrapolated FEM reference and the metrics of every state against it (DESIGN.md).
+"""The extrapolated FEM reference and the metrics of every state against it (docs/validation.md,
+docs/metrics.md).
 
 Metrics per state: frame-curve RMS and max distance / side length, apex position error (mm),
 bending-angle difference (deg), energy split and its difference (N mm), iterations, wall time.

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-import os
+import sys
 from pathlib import Path
 from typing import Any
 
@@ -12,7 +12,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from results import Result, atomic_write  # noqa: E402
+from results import atomic_write, render  # noqa: E402
 
 from .analysis import THRESHOLDS, Analysis  # noqa: E402
 
@@ -165,11 +165,8 @@ def frame_curves(a: Analysis, path: Path) -> Path:
 
 
 def renders(a: Analysis, lam: float, path: Path) -> Path | None:
-    """pyvista renders of DR (matched, paper) and FEM states at ``lam``: top, side, perspective."""
-    os.environ.setdefault("PYVISTA_OFF_SCREEN", "true")
-    import pyvista as pv
-
-    pv.OFF_SCREEN = True
+    """pyvista renders of DR (matched, paper) and FEM states at ``lam``: top, side, perspective;
+    None (and a note on stderr) where nothing can render off-screen."""
     fem = a.states[f"fem_r{a.plan.reference_levels[-1]}"].get(lam)
     shown = [("FEM reference (finest level)", fem), ("DR matched", a.states["dr_matched"].get(lam)),
              ("DR, paper's model", a.states["dr_paper"].get(lam))]
@@ -177,14 +174,15 @@ def renders(a: Analysis, lam: float, path: Path) -> Path | None:
     if not shown:
         return None
     views = (("top", "xy"), ("side", "yz"), ("perspective", "iso"))
-    pl = pv.Plotter(off_screen=True, shape=(len(shown), 3), window_size=(1050, 330 * len(shown)))
+    try:
+        pl = render.plotter(shape=(len(shown), 3), window_size=(1050, 330 * len(shown)))
+    except render.RenderUnavailable as exc:
+        print(f"demes: the report has no renders: {exc}", file=sys.stderr)
+        return None
     for i, (title, res) in enumerate(shown):
-        surf = _surface(res)
         for j, (vname, cam) in enumerate(views):
             pl.subplot(i, j)
-            pl.add_mesh(surf, color="lightsteelblue", show_edges=False, opacity=0.85)
-            frame = res.frame_curve()
-            pl.add_mesh(pv.lines_from_points(np.vstack([frame, frame[:1]])), color="darkred", line_width=4)
+            render.add_state(pl, res)
             pl.add_text(f"{title}, {vname}", font_size=8)
             if cam == "xy":
                 pl.view_xy()
@@ -198,17 +196,3 @@ def renders(a: Analysis, lam: float, path: Path) -> Path | None:
     atomic_write(path, write)
     pl.close()
     return path
-
-
-def _surface(res: Result):
-    """The membrane as a triangulated surface (Delaunay of the flat reference, mapped)."""
-    import pyvista as pv
-    from scipy.spatial import Delaunay
-
-    xy = res.x0[:, :2]
-    tri = Delaunay(xy).simplices
-    centroid = xy[tri].mean(axis=1)
-    keep = res.scene.outline.contains(centroid) if res.scene is not None else np.ones(len(tri), bool)
-    tri = tri[keep]
-    faces = np.hstack([np.full((tri.shape[0], 1), 3), tri]).ravel()
-    return pv.PolyData(res.x, faces)

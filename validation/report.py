@@ -15,9 +15,9 @@ from typing import Any, Sequence
 
 import numpy as np
 
-from results import ENERGY_DEFINITION, atomic_write_text
+from results import ENERGY_DEFINITION, atomic_write_text, level_label
 
-from .analysis import THRESHOLDS, Analysis
+from .analysis import BRANCH_JUMP, THRESHOLDS, Analysis
 from .beam_energy import mismatch_sentence
 from .compare import METRIC_UNITS
 from .tables import format_cell, write_csv
@@ -78,7 +78,7 @@ def to_html(sections: Sequence[Section], title: str) -> str:
 
 
 HEADLINE = (
-    ("prestretch", "lambda [-]", ".2f"),
+    ("prestretch", "lambda [-]", "level"),
     ("theta_fem", "theta FEM [deg]", ".2f"),
     ("theta_fem_error", "+- [deg]", ".2g"),
     ("reference_levels", "levels", "d"),
@@ -114,15 +114,31 @@ BUDGET = (
 )
 SLACK = (
     ("run", "run", ""),
-    ("prestretch", "lambda", ".3f"),
+    ("prestretch", "lambda", "level"),
     ("status", "status", ""),
     ("slack_area_fraction_any", "some family slack", ".1%"),
     ("slack_area_fraction_full", "all slack", ".1%"),
 )
+BRANCH = (
+    ("prestretch", "lambda", "level"),
+    ("level", "level", "d"),
+    ("branch", "branch", ""),
+    ("stable", "stable", ""),
+    ("lowest_eigenvalue", "lowest eigenvalue [N/mm^3]", ".3g"),
+    ("move", "move from previous level [/side]", ".3g"),
+)
+FIRST_CONTACT = (
+    ("level", "level", ""),
+    ("last_free", "last free lambda", ".4f"),
+    ("first_contact", "first contact lambda", ".4f"),
+    ("value", "first contact [-]", ".4f"),
+    ("error", "+- [-]", ".2g"),
+    ("order", "observed order", ".2f"),
+)
 HARD = (
     ("case", "case", ""),
     ("solver", "solver", ""),
-    ("prestretch", "lambda", ".3f"),
+    ("prestretch", "lambda", "level"),
     ("status", "status", ""),
     ("iterations", "iterations", "d"),
     ("wall_time", "time [s]", ".3g"),
@@ -140,16 +156,24 @@ def _findings(a: Analysis) -> list[str]:
         last = rows[-1]
         out.append(
             f"FEM reference (strip frame, extrapolated from refinement levels {list(a.plan.reference_levels)}): "
-            + ", ".join(f"{r['prestretch']:.2f}: {r['theta_fem']:.1f} +- {r['theta_fem_error']:.2g} deg" for r in rows) + "."
+            + ", ".join(f"{level_label(r['prestretch'])}: {r['theta_fem']:.1f} +- {r['theta_fem_error']:.2g} deg" for r in rows) + "."
         )
         m = [r for r in rows if np.isfinite(r.get("shape_rms_matched", np.nan))]
         if m:
             out.append("DR matched (link net, strip) frame-curve RMS error / side: "
-                       + ", ".join(f"{r['prestretch']:.2f}: {r['shape_rms_matched']:.3g}" for r in m) + ".")
+                       + ", ".join(f"{level_label(r['prestretch'])}: {r['shape_rms_matched']:.3g}" for r in m) + ".")
         p = [r for r in rows if np.isfinite(r.get("shape_rms_paper", np.nan))]
         if p:
             out.append("DR as the paper built it (clustered net, Table I isotropic frame): "
-                       + ", ".join(f"{r['prestretch']:.2f}: {r['status_paper']}" for r in rows) + ".")
+                       + ", ".join(f"{level_label(r['prestretch'])}: {r['status_paper']}" for r in rows) + ".")
+    contact = [r for r in a.first_contact if r["level"] == "extrapolated"]
+    if contact:
+        c = contact[0]
+        out.append(f"First contact (FEM levels {', '.join(c['levels'])}): lambda = {c['value']:.3f} +- {c['error']:.2g}.")
+    jumps = [r for r in a.branch_rows if r["branch"] not in ("first", "same")]
+    if jumps:
+        out.append("Levels off the converging branch (not extrapolated): " + ", ".join(
+            f"r{r['level']} at {level_label(r['prestretch'])} ({r['branch']})" for r in jumps) + ".")
     for r in a.reach:
         if np.isfinite(r["ratio_fem_over_dr"]):
             out.append(f"Time to reach {r['shape_error']:.1%} shape error: DR {r['time_dr']:.3g} s, FEM {r['time_fem']:.3g} s, "
@@ -175,9 +199,12 @@ def write_report(a: Analysis, out_dir: Path, figures: dict[str, Path | None], ti
         "budget": write_csv(out_dir / "error_budget.csv", a.budget, units=units),
         "hard": write_csv(out_dir / "hard_cases.csv", a.hard, units=units),
         "reference": write_csv(out_dir / "reference.csv", a.reference_rows, units=units),
+        "branches": write_csv(out_dir / "branches.csv", a.branch_rows, units=units),
+        "first_contact": write_csv(out_dir / "first_contact.csv", a.first_contact, units=units),
     }
     everything = {"headline": a.headline, "speed": a.speed_rows, "time_to_error": a.reach, "error_budget": a.budget,
-                  "hard_cases": a.hard, "reference": a.reference_rows, "states": a.state_rows,
+                  "hard_cases": a.hard, "reference": a.reference_rows, "branches": a.branch_rows,
+                  "first_contact": a.first_contact, "states": a.state_rows,
                   "runs": a.records, "units": units}
     files["json"] = atomic_write_text(out_dir / "metrics.json", json.dumps(_plain(everything), indent=1))
     lam = a.plan.speed_prestretch
@@ -189,6 +216,14 @@ def write_report(a: Analysis, out_dir: Path, figures: dict[str, Path | None], ti
             "grid convergence index: with three levels the observed order and a factor 1.25, with two the formal order 2 "
             "and a factor 3). Statuses other than 'converged' are the named stops of the solver.",
             Table(HEADLINE, a.headline), figures.get("bending_angle"), figures.get("frame_curves")]),
+        Section("Reference levels: branches and first contact", [
+            "Each FEM level follows the path of the coarsest (its states start Newton from the coarse state) and is "
+            "checked: stable (lowest eigenvalue of the tangent above zero) and converging (the frame curve moves less "
+            f"from the previous level than that one moved, within a factor {BRANCH_JUMP:g}). A level that jumped branch "
+            "or is unstable is listed here and left out of the extrapolation.", Table(BRANCH, a.branch_rows),
+            "First frame-frame or frame-film contact: the bracket each level's path found (bisection to 1e-3 in "
+            "pre-stretch) and the value extrapolated over the levels (Richardson), its error estimate plus half the "
+            "finest bracket.", Table(FIRST_CONTACT, a.first_contact)]),
         Section("Energy against stroke", [ENERGY_DEFINITION, mismatch_sentence(),
                                           "Strain energy split into membrane and frame, against the stroke from the most "
                                           "bent state; dotted: the membrane part by the paper's formula.",

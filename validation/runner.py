@@ -18,7 +18,7 @@ from dataclasses import asdict
 from pathlib import Path
 from typing import Any, Callable
 
-from results import Result, atomic_write_text, load_result, save_result, write_pvd
+from results import Result, atomic_write_text, level_label, load_result, save_result, write_pvd
 
 from .executor import DEFAULT_WORKERS, connect, run_tasks
 from .plan import Plan, Run
@@ -110,7 +110,7 @@ def execute(run: Run, scene_data: dict[str, Any], out_dir: str) -> dict[str, Any
         states.update(load_states(run_dir, run.prestretches))
         for res in _states(run, scene, dict(states)):
             save_result(state_path(run_dir, res.prestretch), res)
-            res.write_vtk(run_dir / f"{run.label}_{res.prestretch:.3f}.vtu")
+            res.write_vtk(run_dir / f"{run.label}_{level_label(res.prestretch)}.vtu")
             states[state_key(res, run.prestretches)] = res
     except scenes.DemesError as exc:  # bad input for this run: named, no traceback
         record["error"] = f"{'scene error' if isinstance(exc, scenes.SceneError) else 'refused'}: {exc}"
@@ -125,7 +125,7 @@ def execute(run: Run, scene_data: dict[str, Any], out_dir: str) -> dict[str, Any
          "iterations": r.iterations, "message": r.message}
         for lam, r in sorted(states.items())
     ]
-    vtus = [(lam, run_dir / f"{run.label}_{lam:.3f}.vtu") for lam in sorted(states)]
+    vtus = [(lam, run_dir / f"{run.label}_{level_label(lam)}.vtu") for lam in sorted(states)]
     if vtus:
         write_pvd(run_dir / f"{run.label}.pvd", [(lam, p) for lam, p in vtus if p.exists()])
     record["complete"] = record["error"] is None

@@ -7,7 +7,7 @@ from typing import Callable, Iterator, Sequence
 
 from tqdm import tqdm
 
-from results import SUMMARY_COLUMNS, Result, write_pvd
+from results import SUMMARY_COLUMNS, Result, level_label, write_pvd
 
 from .tables import STATE_TABLE, format_table, write_csv
 
@@ -32,12 +32,12 @@ def run_sweep(
     bar = tqdm(total=len(prestretches), desc=label, unit="state", disable=not progress, leave=False)
     try:
         for res in states:
-            vtu = res.write_vtk(out / f"{label}_{res.prestretch:.3f}.vtu")
+            vtu = res.write_vtk(out / f"{label}_{level_label(res.prestretch)}.vtu")
             entries.append((res.prestretch, vtu))
             results.append(res)
             write_pvd(out / f"{label}.pvd", entries)
             write_csv(out / f"{label}.csv", [r.summary() for r in results], [c for c, _ in SUMMARY_COLUMNS])
-            bar.set_postfix_str(f"lambda={res.prestretch:.2f} theta={res.summary()['bending_angle']:.1f} {res.status}")
+            bar.set_postfix_str(f"lambda={level_label(res.prestretch)} theta={res.summary()['bending_angle']:.1f} {res.status}")
             bar.update()
             if on_state is not None:
                 on_state(res)
@@ -61,7 +61,7 @@ def stop_notes(results: Sequence[Result], requested: Sequence[float]) -> str:
     lines = [f"  {r.status}: {r.message}" for r in results if not r.converged]
     missed = not_reached(requested, [r.prestretch for r in results])
     if missed:
-        lines.append("  not reached (the path stopped before them): " + " ".join(f"{v:g}" for v in missed))
+        lines.append("  not reached (the path stopped before them): " + " ".join(level_label(v) for v in missed))
     text = "\n" + "\n".join(lines) if lines else ""
     if text:
         print(text.lstrip("\n"), flush=True)

@@ -10,9 +10,12 @@ from typing import Any, Sequence
 
 import numpy as np
 
-from results import SUMMARY_COLUMNS, atomic_write_text
+from results import SUMMARY_COLUMNS, atomic_write_text, level_label
 
 UNITS = dict(SUMMARY_COLUMNS)
+
+LEVEL_COLUMNS = ("prestretch", "voltage")
+"""Columns of levels a user types: written as typed, without the round-off of their grid."""
 
 
 def header(name: str, units: dict[str, str] | None = None) -> str:
@@ -21,13 +24,14 @@ def header(name: str, units: dict[str, str] | None = None) -> str:
     return name if unit == "-" else f"{name} [{unit}]"
 
 
-def _fmt(v: Any) -> str:
+def _fmt(v: Any, column: str = "") -> str:
     if isinstance(v, bool):
         return "yes" if v else "no"
     if isinstance(v, int):
         return str(v)
     if isinstance(v, (float, np.floating)):
-        return repr(float(v))  # every digit: the CSV is data, the tables round for reading
+        # every digit: the CSV is data, the tables round for reading; levels as typed
+        return level_label(v) if column in LEVEL_COLUMNS else repr(float(v))
     return str(v)
 
 
@@ -41,16 +45,19 @@ def write_csv(path: str | Path, rows: Sequence[dict[str, Any]], columns: Sequenc
     w = csv.writer(buf)
     w.writerow([header(c, units) for c in columns])
     for r in rows:
-        w.writerow([_fmt(r.get(c, "")) for c in columns])
+        w.writerow([_fmt(r.get(c, ""), c) for c in columns])
     return atomic_write_text(path, buf.getvalue())
 
 
 def format_cell(v: Any, spec: str = "") -> str:
-    """A value for a human-readable table: '-' for missing or NaN, yes/no for booleans."""
+    """A value for a human-readable table: '-' for missing or NaN, yes/no for booleans; spec
+    'level' writes a pre-stretch or voltage as typed (see :func:`results.level_label`)."""
     if v is None or (isinstance(v, float) and math.isnan(v)):
         return "-"
     if isinstance(v, (bool, np.bool_)):
         return "yes" if v else "no"
+    if spec == "level" and isinstance(v, (int, float, np.integer, np.floating)):
+        return level_label(v)
     if isinstance(v, (int, float, np.integer, np.floating)) and spec:
         return format(float(v) if spec[-1] in "efg%" else int(v), spec)
     return str(v)
@@ -67,7 +74,7 @@ def format_table(rows: Sequence[dict[str, Any]], columns: Sequence[tuple[str, st
 
 
 STATE_TABLE = (
-    ("prestretch", "lambda", ".3f"),
+    ("prestretch", "lambda", "level"),
     ("bending_angle", "theta[deg]", ".2f"),
     ("apex_y", "apex_y[mm]", ".2f"),
     ("apex_z", "apex_z[mm]", ".2f"),
