@@ -16,17 +16,19 @@ import scenes
 from results import level_label
 from validation.validate import validate
 
-quick = "--full" not in sys.argv
-scene = scenes.load("demes_paper")
-out = Path("reports") / f"{scene.name}{'_quick' if quick else ''}"
-files = validate(scene, out, quick=quick)
-print(f"report: {files['html']}")
+# the runs go to a Dask LocalCluster, whose worker processes import this file again
+if __name__ == "__main__":
+    quick = "--full" not in sys.argv
+    scene = scenes.load("demes_paper")
+    out = Path("reports") / f"{scene.name}{'_quick' if quick else ''}"
+    files = validate(scene, out, quick=quick)
+    print(f"report: {files['html']}")
 
-metrics = json.loads((out / "metrics.json").read_text())
-print("lambda  theta FEM [deg]  theta DR matched [deg]  shape RMS DR matched [/side]")
-for row in metrics["headline"]:
-    print(f"{level_label(row['prestretch']):>6s}  {row['theta_fem']:14.2f}  {row['theta_matched']:22.2f}  "
-          f"{row.get('shape_rms_matched', float('nan')):28.4f}")
-for row in metrics["time_to_error"]:  # None: not reached by that method in this study
-    print(f"time to {row['shape_error']:.1%} shape error: DR {row['time_dr']} s, FEM {row['time_fem']} s, "
-          f"FEM / DR {row['ratio_fem_over_dr']}")
+    metrics = json.loads((out / "metrics.json").read_text())
+    print("lambda  theta FEM [deg]  theta DR matched [deg]  shape RMS DR matched [/side]")
+    for row in metrics["headline"]:
+        print(f"{level_label(row['prestretch']):>6s}  {row['theta_fem']:14.2f}  {row['theta_matched']:22.2f}  "
+              f"{row.get('shape_rms_matched', float('nan')):28.4f}")
+    for row in metrics["time_to_error"]:  # None: not reached by that method in this study
+        print(f"time to {row['shape_error']:.1%} shape error: DR {row['time_dr']} s, FEM {row['time_fem']} s, "
+              f"FEM / DR {row['ratio_fem_over_dr']}")

@@ -69,3 +69,8 @@ def test_validate_example_reads_the_report(report):
     assert re.search(r"time to 1\.0% shape error: DR", printed)
     lines = [line for line in printed.splitlines() if re.match(r" *1\.(0|15|3)  ", line)]
     assert len(lines) == 3  # one headline row per pre-stretch of the quick plan
+
+
+def test_design_sweep_example_tabulates_the_bending_angles(run_example):
+    printed = run_example("design_sweep.py", "--workers", "1")
+    assert "9 paths solved" in printed and "bending angle [deg]" in printed

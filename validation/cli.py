@@ -1,4 +1,4 @@
-"""The ``demes`` command line: solve (DR), fem (reference), bench, validate."""
+"""The ``demes`` command line: solve (DR), fem (reference), sweep (design grid), bench, validate."""
 
 from __future__ import annotations
 
@@ -14,6 +14,8 @@ from results import Result, atomic_write_text
 from scenes import DemesError
 from scenes.scene import prestretch_list
 
+from .executor import DEFAULT_WORKERS
+from .grid import DEFAULT_MAX_POINTS
 from .sweep import print_table, run_sweep, stop_notes
 
 
@@ -124,9 +126,34 @@ def cmd_validate(args: argparse.Namespace) -> int:
     if not 1 <= args.workers <= 64:
         raise DemesError(f"--workers {args.workers}: give 1 to 64 worker processes")
     out = writable_folder(args.out or f"reports/{scene.name}{'_quick' if args.quick else ''}")
-    files = validate(scene, out, quick=args.quick, workers=args.workers, progress=not args.no_progress)
+    files = validate(scene, out, quick=args.quick, workers=args.workers, progress=not args.no_progress,
+                     scheduler=args.scheduler)
     print(f"wrote {out / 'index.html'} and {out / 'report.md'} in {files['elapsed_s']:.0f} s")
     return 0
+
+
+def cmd_sweep(args: argparse.Namespace) -> int:
+    from .grid import GridError, load_grid
+    from .study import run_study
+
+    try:
+        grid = load_grid(args.grid, solver=args.solver, max_points=args.max_points)
+    except GridError as exc:
+        print(f"demes sweep: bad grid: {exc}", file=sys.stderr)
+        return 1
+    if not 1 <= args.workers <= 64:
+        raise DemesError(f"--workers {args.workers}: give 1 to 64 worker processes")
+    out = writable_folder(args.out or f"out/sweep/{grid.name}")
+    study = run_study(grid, out, scheduler=args.scheduler, workers=args.workers, vtk=args.vtk,
+                      progress=not args.no_progress)
+    counts = study.table["status"].value_counts()
+    print(f"{grid.n_points} points ({len(grid.families)} paths x {len(grid.prestretches)} pre-stretches), "
+          f"{grid.solver.upper()}: " + ", ".join(f"{n} {status}" for status, n in counts.items())
+          + f"; solved {len(study.solved)} path(s) now, in {study.wall_time:.1f} s")
+    for key, error in study.failed.items():
+        print(f"  path {key} failed: {error} (rerun to retry it)", file=sys.stderr)
+    print(f"wrote {study.files['csv']}, {study.files['parquet']} and {len(study.files) - 2} plots in {out / 'figures'}")
+    return 2 if study.failed else 0
 
 
 def cmd_bench(args: argparse.Namespace) -> int:
@@ -135,6 +162,13 @@ def cmd_bench(args: argparse.Namespace) -> int:
     if not 1 <= args.repeats <= 100:
         raise DemesError(f"--repeats {args.repeats}: give 1 to 100 runs per case")
     return bench.main(repeats=args.repeats)
+
+
+def _cluster_options(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--scheduler", metavar="tcp://HOST:8786",
+                   help="run on this Dask cluster (default: a LocalCluster on this machine)")
+    p.add_argument("--workers", type=int, default=DEFAULT_WORKERS,
+                   help=f"LocalCluster worker processes (default {DEFAULT_WORKERS}; 1: run in this process)")
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -151,10 +185,20 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("scene", nargs="?", default="demes_paper", help="scene .toml or built-in name (default: demes_paper)")
     p.add_argument("--out", help="report folder (default: reports/<scene>[_quick])")
     p.add_argument("--quick", action="store_true", help="coarse, short study (under 2 minutes; what the tests run)")
-    p.add_argument("--workers", type=int, default=2, help="parallel solver processes (default 2)")
+    _cluster_options(p)
     p.add_argument("--set", action="append", metavar="KEY=VALUE", help="change a scene field")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.set_defaults(func=cmd_validate)
+    p = sub.add_parser("sweep", help="design study over a grid of scene fields (GRID.toml), on a Dask cluster")
+    p.add_argument("grid", help="grid file: base scene, swept fields, pre-stretch list (see examples/design_grid.toml)")
+    p.add_argument("--out", help="output folder (default: out/sweep/<grid>); finished points there are kept")
+    p.add_argument("--solver", choices=("dr", "fem"), help="solver (default: the grid's, else dr)")
+    p.add_argument("--vtk", action="store_true", help="write a ParaView series per point (points/<id>/<id>.pvd)")
+    p.add_argument("--max-points", type=int, default=DEFAULT_MAX_POINTS,
+                   help=f"refuse larger grids (default {DEFAULT_MAX_POINTS})")
+    _cluster_options(p)
+    p.add_argument("--no-progress", action="store_true", help="no progress bar")
+    p.set_defaults(func=cmd_sweep)
     p = sub.add_parser("bench", help="time the DR solver on the elastica and the paper DEMES")
     p.add_argument("--repeats", type=int, default=3, help="runs per case (median reported)")
     p.set_defaults(func=cmd_bench)

@@ -1,4 +1,5 @@
-"""Execute the runs of a plan in parallel worker processes, resumably, with timings and memory.
+"""Execute the runs of a plan on a Dask cluster (:mod:`validation.executor`), resumably, with
+timings and memory.
 
 Every finished state is written at once (``runs/<label>/<lambda>.npz`` and a ``.vtu``), and a
 run's record (``run.json``) when the run is done; an interrupted validation picks up from
@@ -13,15 +14,13 @@ import os
 import resource
 import time
 import traceback
-from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import asdict
 from pathlib import Path
 from typing import Any, Callable
 
-from tqdm import tqdm
-
 from results import Result, atomic_write_text, level_label, load_result, save_result, write_pvd
 
+from .executor import DEFAULT_WORKERS, connect, run_tasks
 from .plan import Plan, Run
 
 
@@ -144,32 +143,25 @@ def _as_recorded(run: Run) -> dict[str, Any]:
     return json.loads(json.dumps(asdict(run)))
 
 
-def run_plan(plan: Plan, scene_data: dict[str, Any], out_dir: Path, workers: int = 2,
-             progress: bool = True, on_done: Callable[[dict[str, Any]], None] | None = None) -> dict[str, dict[str, Any]]:
-    """Execute every run of ``plan`` that is not complete on disk; returns all run records."""
+def run_plan(plan: Plan, scene_data: dict[str, Any], out_dir: Path, workers: int = DEFAULT_WORKERS,
+             progress: bool = True, on_done: Callable[[dict[str, Any]], None] | None = None,
+             scheduler: str | None = None) -> dict[str, dict[str, Any]]:
+    """Execute every run of ``plan`` that is not complete on disk; returns all run records.
+
+    The runs go to the Dask cluster at ``scheduler`` if given, else to a LocalCluster of
+    ``workers`` processes (``workers <= 1``: this process), see :mod:`validation.executor`.
+    """
     out_dir.mkdir(parents=True, exist_ok=True)
     todo = [r for r in plan.runs if not is_complete(r, out_dir)]
     # the slowest first, so that two workers finish together
     todo.sort(key=lambda r: (r.solver != "fem", -r.refinement, -len(r.prestretches)))
-    bar = tqdm(total=len(plan.runs), initial=len(plan.runs) - len(todo), desc="validate", unit="run",
-               disable=not progress)
-    try:
-        if workers <= 1:
-            for r in todo:
-                rec = execute(r, scene_data, str(out_dir))
-                bar.set_postfix_str(r.label)
-                bar.update()
-                if on_done:
-                    on_done(rec)
-        else:
-            with ProcessPoolExecutor(max_workers=workers) as pool:
-                futures = {pool.submit(execute, r, scene_data, str(out_dir)): r for r in todo}
-                for fut in as_completed(futures):
-                    rec = fut.result()
-                    bar.set_postfix_str(futures[fut].label)
-                    bar.update()
-                    if on_done:
-                        on_done(rec)
-    finally:
-        bar.close()
+    with connect(scheduler, workers if todo else 1) as client:
+        for outcome in run_tasks(execute, todo, client=client, args=(scene_data, str(out_dir)),
+                                 total=len(plan.runs), done=len(plan.runs) - len(todo),
+                                 desc="validate", unit="run", progress=progress):
+            if outcome.error is not None:
+                # the worker died: the run's record on disk says how far it got
+                raise RuntimeError(f"validation run {outcome.task.label!r} failed: {outcome.error}")
+            if on_done:
+                on_done(outcome.value)
     return {r.label: run_record(out_dir / "runs" / r.label) or {} for r in plan.runs}

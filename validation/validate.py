@@ -15,12 +15,14 @@ from .runner import run_plan
 
 
 def validate(scene: scenes.Scene, out_dir: Path, quick: bool = False, workers: int = 2,
-             progress: bool = True) -> dict[str, Path]:
+             progress: bool = True, scheduler: str | None = None) -> dict[str, Path]:
     """Validate DR against the FEM reference on ``scene`` and write ``out_dir``; returns the
-    report's files. Finished runs found in ``out_dir`` are kept (resume)."""
+    report's files. Finished runs found in ``out_dir`` are kept (resume). The runs go to the
+    Dask cluster at ``scheduler`` (``tcp://host:8786``), else to a LocalCluster of ``workers``
+    processes (``workers <= 1``: this process)."""
     t0 = time.perf_counter()
     plan = build_plan(quick)
-    run_plan(plan, scene.to_dict(), out_dir, workers=workers, progress=progress)
+    run_plan(plan, scene.to_dict(), out_dir, workers=workers, progress=progress, scheduler=scheduler)
     a = analyse(plan, out_dir)
     fig_dir = out_dir / "figures"
     figs = {

@@ -1,0 +1,176 @@
+"""demes sweep: grid checks, a Dask LocalCluster run equal to a serial one, a killed worker,
+resume."""
+
+import os
+import signal
+import threading
+import time
+
+import pandas as pd
+import pytest
+
+from scenes import tomllib
+from validation.cli import main
+from validation.grid import GridError, grid_from_dict
+from validation.study import family_dir, load_records, record_path, run_study
+
+# a fast study: the strip frame (stated: the default frame model may change) on coarse meshes at
+# low pre-stretch; the finer mesh is the slow point
+GRID_TOML = """
+scene = "demes_paper"
+prestretch = [1.05, 1.1]
+[set]
+frame.model = "strip"
+[product]
+mesh.divisions = [6, 14]
+"""
+GRID = tomllib.loads(GRID_TOML)
+
+
+def grid(max_points=10_000, **changes):
+    return grid_from_dict({**GRID, **changes}, name="study", max_points=max_points)
+
+
+@pytest.mark.parametrize("changes, words", [
+    ({"product": {"frame.thikness": [0.1]}}, ["frame.thikness"]),
+    ({"product": {"frame.thickness": []}}, ["frame.thickness", "empty"]),
+    ({"product": {"frame.thickness": 0.1}}, ["frame.thickness", "list"]),
+    ({"product": {"frame.thickness": ["thin"]}}, ["frame.thickness", "number"]),
+    ({"product": {"loading.prestretch": [1.2]}}, ["loading.prestretch", "top-level"]),
+    ({"points": [{"frame.width": "wide"}]}, ["points[0]", "frame.width"]),
+    ({"points": [{"mesh.divisions": 8}]}, ["mesh.divisions", "both"]),
+    ({"prestretch": [0.9]}, ["prestretch[0]", "below 1"]),
+    ({"prestretch": []}, ["prestretch", "1 to 1000"]),
+    ({"solver": "abaqus"}, ["solver"]),
+    ({"product": {"mesh.divisions": [6, 6]}}, ["'mesh.divisions': 6", "twice"]),
+    ({"sweep": [1.1]}, ["'sweep'"]),
+])
+def test_bad_grids_name_the_field(changes, words):
+    with pytest.raises(GridError) as err:
+        grid(**changes)
+    for word in words:
+        assert word in str(err.value)
+
+
+def test_a_grid_above_the_bound_says_how_to_raise_it():
+    with pytest.raises(GridError, match=r"12 points \(2 mesh.divisions x 3 frame.thickness x 2 pre-stretches\).*--max-points 12"):
+        grid(product={"mesh.divisions": [6, 8], "frame.thickness": [0.1, 0.11, 0.12]}, max_points=10)
+
+
+def test_grid_is_the_product_of_the_listed_points_and_the_value_lists():
+    g = grid(points=[{"frame": {"width": 3.0}}, {"frame.width": 4.0, "dr.prestretch_step": 0.0125}])
+    assert len(g.families) == 4 and g.n_points == 8
+    assert g.fields == ("frame.width", "dr.prestretch_step", "mesh.divisions")
+    # a listed point that does not set a field carries the base scene's value
+    assert g.families[1].fields == {"frame.width": 3.0, "dr.prestretch_step": 0.025, "mesh.divisions": 14}
+    assert len({f.key for f in g.families}) == 4
+
+
+def test_cli_reports_a_bad_grid(tmp_path, capsys):
+    path = tmp_path / "bad.toml"
+    path.write_text('prestretch = [1.1]\n[product]\nframe.thickness = []\n')
+    assert main(["sweep", str(path), "--out", str(tmp_path / "out")]) == 1
+    err = capsys.readouterr().err
+    assert "bad grid" in err and "frame.thickness" in err and "empty" in err
+
+
+@pytest.fixture(scope="module")
+def serial(tmp_path_factory):
+    out = tmp_path_factory.mktemp("serial")
+    return run_study(grid(), out, workers=1, plots=False, progress=False)
+
+
+@pytest.fixture(scope="module")
+def cluster():
+    import logging
+
+    from distributed import Client, LocalCluster
+
+    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None,
+                      silence_logs=logging.ERROR) as cl, Client(cl) as client:
+        yield cl, client
+
+
+def comparable(table):
+    return table.drop(columns=["wall_time"])
+
+
+def mtimes(out, family):
+    folder = family_dir(out, family)
+    return {lam: record_path(folder, lam).stat().st_mtime_ns for lam in load_records(out, family)}
+
+
+def test_cluster_run_survives_a_killed_worker_and_equals_the_serial_run(serial, cluster, tmp_path, capsys):
+    """Kill the worker solving the slow point once the fast point is finished: the finished
+    records are kept as they were, the rest is redone, and the table is the serial run's."""
+    cl, client = cluster
+    g = grid()
+    fast, slow = g.families
+    pids = client.run(os.getpid)
+    seen = {}
+
+    def kill_when_the_fast_point_is_done():
+        deadline = time.monotonic() + 120
+        while time.monotonic() < deadline:  # until the fast point's task returned and the slow one's runs
+            fast_done = len(load_records(tmp_path, fast)) == len(fast.prestretches)
+            busy = [addr for addr, keys in client.processing().items() if keys]
+            if fast_done and len(busy) <= 1:
+                break
+            time.sleep(0.005)
+        seen["fast"] = mtimes(tmp_path, fast)
+        seen["slow"] = mtimes(tmp_path, slow)
+        seen["killed"] = [pids[addr] for addr in busy]
+        for addr in busy:
+            os.kill(pids[addr], signal.SIGKILL)
+
+    killer = threading.Thread(target=kill_when_the_fast_point_is_done, daemon=True)
+    killer.start()
+    study = run_study(g, tmp_path, scheduler=cl.scheduler_address, plots=False, progress=False)
+    killer.join()
+    assert study.failed == {}
+    assert len(seen["slow"]) < len(slow.prestretches), "the kill came after the slow point had finished"
+    assert len(seen["killed"]) == 1 and seen["killed"][0] not in client.run(os.getpid).values()
+    assert mtimes(tmp_path, fast) == seen["fast"]  # finished records not rewritten
+    assert all(mtimes(tmp_path, slow)[lam] == t for lam, t in seen["slow"].items())
+    pd.testing.assert_frame_equal(comparable(study.table), comparable(serial.table))
+    assert (study.table["status"] == "converged").all()
+    assert study.table["bending_angle"].between(5, 90).all()  # a curling strip, not a flat state
+    pd.testing.assert_frame_equal(pd.read_parquet(study.files["parquet"]), study.table)
+
+    before = {f.key: mtimes(tmp_path, f) for f in g.families}
+    path = tmp_path / "study.toml"
+    path.write_text(GRID_TOML)
+    assert main(["sweep", str(path), "--out", str(tmp_path), "--workers", "1", "--no-progress"]) == 0
+    assert "4 converged; solved 0 path(s) now" in capsys.readouterr().out  # resume: nothing recomputed
+    assert {f.key: mtimes(tmp_path, f) for f in g.families} == before
+    pd.testing.assert_frame_equal(pd.read_parquet(tmp_path / "study.parquet"), study.table)
+    for plot in ("prestretch", "mesh.divisions"):
+        assert (tmp_path / "figures" / f"{plot}.png").stat().st_size > 10_000, plot
+
+
+def test_a_stopped_path_records_why_and_the_pre_stretches_it_did_not_reach(tmp_path):
+    """Table I's beam at 8 divisions folds its membrane on the way to 1.3 (README: it does not
+    curl): that point keeps its status and where it stopped, in the table and the ParaView
+    series; 1.4 is not reached; a rerun solves nothing."""
+    g = grid(**{"set": {"frame.model": "paper"}, "product": {"mesh.divisions": [8]}, "prestretch": [1.2, 1.3, 1.4]})
+    table = run_study(g, tmp_path, workers=1, vtk=True, plots=False, progress=False).table
+    assert table["status"].tolist() == ["converged", "membrane_fold", "not_reached"]
+    key = g.families[0].key
+    series = (tmp_path / "points" / key / f"{key}.pvd").read_text()  # ParaView series of the path
+    assert series.count("<DataSet") == 2 and f"{key}_1.3000.vtu" in series
+    assert 1.2 < table["reached_prestretch"][1] < 1.3
+    assert table["bending_angle"][:2].notna().all() and table["bending_angle"][2:].isna().all()
+    again = run_study(g, tmp_path, workers=1, plots=False, progress=False)
+    assert again.solved == () and again.table.equals(table)
+
+
+def test_a_failed_path_is_reported_and_left_to_the_rerun(tmp_path, monkeypatch):
+    def broken(family, out_dir, vtk):
+        raise FloatingPointError(f"path {family.key} diverged")
+
+    monkeypatch.setattr("validation.study.solve_family", broken)
+    study = run_study(grid(), tmp_path, workers=1, plots=False, progress=False)
+    assert set(study.failed) == {f.key for f in grid().families} and study.solved == ()
+    assert (study.table["status"] == "failed").all()
+    assert study.table["message"].str.contains("FloatingPointError: path .* diverged").all()
+    assert not list(tmp_path.glob("points/*/*.json"))  # nothing recorded: a rerun tries again
