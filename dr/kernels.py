@@ -25,6 +25,8 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
+from . import rod as rod_element
+from .triangles import triangle_gradient, triangle_local, triangle_stiffness
 from .vec import add, add_to, axpy, cross, dot, get, norm, scale, sub, unit_vjp
 
 Z_AXIS = (0.0, 0.0, 1.0)
@@ -64,6 +66,12 @@ class Packed(NamedTuple):
     strip_idx: np.ndarray  # (k, 5) frame geometry of strip nodes
     strip_par: np.ndarray  # (k, 9) KB, KT, EIW, EIS, GJ, KW0, KN0, TAU0, LBAR
     strip_blocks: np.ndarray  # (k, 5, 6) scratch: mass blocks in the material frame
+    tri_idx: np.ndarray  # (t, 3) membrane triangles
+    tri_grad: np.ndarray  # (t, 3, 2) flat shape-function gradients, 1/mm
+    tri_par: np.ndarray  # (t, 5) see dr.triangles (area, E h, lambda, tension-only, law)
+    rod_idx: np.ndarray  # (r, 7) rod vertex stencils, see dr.rod
+    rod_par: np.ndarray  # (r, dr.rod.N_PAR)
+    rod_blocks: np.ndarray  # (r, 7, 6) scratch: mass blocks in the vertex's material frame
 
 
 # ----------------------------------------------------------------------------- frame geometry
@@ -425,6 +433,24 @@ def gradient(X, P, G, D):
             for r in range(5):
                 if idx[r] >= 0:
                     add_rotated(D, idx[r], P.strip_blocks[k, r], frame)
+    xt = np.zeros((3, 3))
+    gt = np.zeros((3, 3))
+    for k in range(P.tri_idx.shape[0]):
+        fmax = max(fmax, triangle_gradient(X, P.tri_idx[k], P.tri_grad[k], P.tri_par[k], G, D, xt, gt))
+    xr = np.zeros((rod_element.ROWS, 3))
+    gr = np.zeros((rod_element.ROWS, 3))
+    for k in range(P.rod_idx.shape[0]):
+        idx = P.rod_idx[k]
+        rod_element.gather(X, idx, xr)
+        gr[:] = 0.0
+        _, _, frame, _ = rod_element.rod_local(xr, P.rod_par[k], gr, True)
+        for r in range(rod_element.ROWS):
+            if idx[r] >= 0:
+                add_to(G, idx[r], get(gr, r), 1.0)
+                if tensor and P.rod_par[k, rod_element.MODEL] == rod_element.STRIP:
+                    add_rotated(D, idx[r], P.rod_blocks[k, r], frame)
+        for r in range(3):
+            fmax = max(fmax, norm(get(gr, r)))
     pull_back_virtual(X, G, P)
     if tensor:
         for k in range(P.off_geo.shape[0]):
@@ -469,6 +495,18 @@ def energy(X, P):
         eb, et, _ = strip_local(xl, idx[3] < 0, idx[4] < 0, P.strip_par[k], gl, False)
         e_bend += eb
         e_twist += et
+    xt = np.zeros((3, 3))
+    for k in range(P.tri_idx.shape[0]):
+        for a in range(3):
+            for c in range(3):
+                xt[a, c] = X[P.tri_idx[k, a], c]
+        e_mem += triangle_local(xt, P.tri_grad[k], P.tri_par[k], xt, False)
+    xr = np.zeros((rod_element.ROWS, 3))
+    for k in range(P.rod_idx.shape[0]):
+        rod_element.gather(X, P.rod_idx[k], xr)
+        eb, et, _, _ = rod_element.rod_local(xr, P.rod_par[k], xr, False)
+        e_bend += eb
+        e_twist += et
     return e_mem, e_bend, e_twist, e_ax
 
 
@@ -501,28 +539,36 @@ def _strip_hessian(xl, fixed1, fixed2, par, H):
 
 @njit(cache=True, error_model="numpy")
 def _strip_blocks(xl, fixed1, fixed2, par, H, out):
-    """Mass blocks of a strip term in its node's material frame, out (5, 6).
+    """Mass blocks of a strip term in its node's material frame, out (5, 6)."""
+    active = np.ones(5, dtype=np.bool_)
+    active[3], active[4] = not fixed1, not fixed2
+    _, _, frame = strip_local(xl, fixed1, fixed2, np.zeros(9), np.zeros((5, 3)), False)
+    frame_blocks(H, active, frame, out)
 
-    With |H| the absolute value of the (symmetrised) Hessian over the term's m active node
-    blocks, H <= |H| <= m blockdiag(|H|) (Cauchy-Schwarz), so m |H|_rr bounds each node's
-    share. Stored in the frame (t, u, n) so that they can turn with the strip.
+
+@njit(cache=True, error_model="numpy")
+def frame_blocks(H, active, frame, out):
+    """Mass blocks out (rows, 6) of a term with Hessian H over its rows, in a material frame.
+
+    With |H| the absolute value of the (symmetrised) Hessian over the term's m active rows,
+    H <= |H| <= m blockdiag(|H|) (Cauchy-Schwarz), so m |H|_rr bounds each row's share. Stored
+    in the frame (t, u, n) so that they can turn with the element.
     """
     Hs = 0.5 * (H + H.T)
     w, V = np.linalg.eigh(Hs)
     A = (V * np.abs(w)) @ V.T
-    active = 0
-    for r in range(5):
-        if not ((r == 3 and fixed1) or (r == 4 and fixed2)):
-            active += 1
-    _, _, frame = strip_local(xl, fixed1, fixed2, np.zeros(9), np.zeros((5, 3)), False)
-    for r in range(5):
+    m = 0
+    for r in range(active.shape[0]):
+        if active[r]:
+            m += 1
+    for r in range(active.shape[0]):
         for a in range(3):
             for b in range(a, 3):
                 v = 0.0
                 for p in range(3):
                     for q in range(3):
                         v += frame[a][p] * A[3 * r + p, 3 * r + q] * frame[b][q]
-                out[r, _SLOT[a][b]] = active * v
+                out[r, _SLOT[a][b]] = m * v if active[r] else 0.0
 
 
 @njit(cache=True, error_model="numpy")
@@ -588,23 +634,44 @@ def stiffness(X, P, S, with_links):
         f1, f2 = idx[3] < 0, idx[4] < 0
         _strip_hessian(xl, f1, f2, P.strip_par[k], H)
         if with_links:
-            for r in range(5):
-                if idx[r] >= 0:
-                    row = 0.0
-                    for c in range(3):
-                        acc = 0.0
-                        for j in range(15):
-                            acc += abs(H[3 * r + c, j])
-                        row = max(row, acc)
-                    S[idx[r]] += row
+            _gershgorin(H, idx, S)
         else:
             _strip_blocks(xl, f1, f2, P.strip_par[k], H, P.strip_blocks[k])
+    xt = np.zeros((3, 3))
+    for k in range(P.tri_idx.shape[0]):
+        triangle_stiffness(X, P.tri_idx[k], P.tri_grad[k], P.tri_par[k], S, with_links, xt)
+    xr = np.zeros((rod_element.ROWS, 3))
+    Hr = np.zeros((3 * rod_element.ROWS, 3 * rod_element.ROWS))
+    for k in range(P.rod_idx.shape[0]):
+        idx = P.rod_idx[k]
+        rod_element.gather(X, idx, xr)
+        rod_element.rod_hessian(xr, idx, P.rod_par[k], Hr)
+        if with_links or P.rod_par[k, rod_element.MODEL] == rod_element.PAPER:
+            _gershgorin(Hr, idx, S)  # isotropic bending: an isotropic bound
+        else:
+            _, _, frame, _ = rod_element.rod_local(xr, P.rod_par[k], xr, False)
+            frame_blocks(Hr, idx >= 0, frame, P.rod_blocks[k])
     n = P.n
     base = n + P.off_geo.shape[0]
     for k in range(P.off_geo.shape[0]):
         S[P.off_geo[k, 1]] += S[n + k]
     for k in range(P.ghost_src.shape[0]):
         S[P.ghost_src[k]] += S[base + k]
+
+
+@njit(cache=True, error_model="numpy")
+def _gershgorin(H, idx, S):
+    """S[idx[r]] += the largest absolute row sum of H over row block r (Gershgorin)."""
+    for r in range(idx.shape[0]):
+        if idx[r] < 0:
+            continue
+        row = 0.0
+        for c in range(3):
+            acc = 0.0
+            for j in range(H.shape[1]):
+                acc += abs(H[3 * r + c, j])
+            row = max(row, acc)
+        S[idx[r]] += row
 
 
 @njit(cache=True, error_model="numpy")
