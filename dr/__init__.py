@@ -10,5 +10,6 @@ from .errors import DRError
 from .model import Model
 from .demes import build, solve, sweep
 from .relax import relax
+from .actuation import voltage_sweep
 
-__all__ = ["Model", "relax", "solve", "sweep", "build", "DRError", "FrameContact", "MembraneFold"]
+__all__ = ["Model", "relax", "solve", "sweep", "voltage_sweep", "build", "DRError", "FrameContact", "MembraneFold"]

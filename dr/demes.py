@@ -11,6 +11,7 @@ from scipy.spatial import cKDTree
 
 from results import Result
 from scenes import Scene, SceneError
+from scenes.electric import dielectric_coefficient
 from scenes.mesh import membrane_mesh
 
 from .contact import FrameContact, MembraneFold
@@ -137,6 +138,7 @@ def build(scene: Scene, prestretch: float | None = None) -> DemesModel:
         else:
             m.add_link(c[:-1], c[1:], EA, rest_length=flat / lam, tension_only=tension_only)
 
+    m.add_dielectric(net.triangles, dielectric_coefficient(scene))
     start = nodes.copy()
     start[:, 2] += np.where(m.fixed[:, 2], 0.0, scene.initial_lift(nodes[:, :2]))
     contact, final_checks = None, []
@@ -169,6 +171,7 @@ def _build_triangles(scene: Scene, lam: float) -> DemesModel:
     m.add_rod(mesh.frame_nodes, EA=frame.EA, EI=frame.EI, closed=True,
               EI_strong=frame.EI_strong if strip else None, GJ=frame.GJ if strip else None,
               bond=mesh.bond_nodes if strip else None)
+    m.add_dielectric(mesh.triangles, dielectric_coefficient(scene))
     start = nodes.copy()
     start[:, 2] += np.where(m.fixed[:, 2], 0.0, scene.initial_lift(nodes[:, :2]))
     contact, final_checks = None, []

@@ -26,6 +26,7 @@ import numpy as np
 from numba import njit
 
 from . import rod as rod_element
+from .dielectric import dielectric_gradient, dielectric_stiffness
 from .triangles import triangle_gradient, triangle_local, triangle_stiffness
 from .vec import add, add_to, axpy, cross, dot, get, norm, scale, sub, unit_vjp
 
@@ -72,6 +73,8 @@ class Packed(NamedTuple):
     rod_idx: np.ndarray  # (r, 7) rod vertex stencils, see dr.rod
     rod_par: np.ndarray  # (r, dr.rod.N_PAR)
     rod_blocks: np.ndarray  # (r, 7, 6) scratch: mass blocks in the vertex's material frame
+    diel_idx: np.ndarray  # (d, 3) triangles of the dielectric film, see dr.dielectric
+    diel_par: np.ndarray  # (d, 2) flat area (mm^2), coefficient c (N/mm)
 
 
 # ----------------------------------------------------------------------------- frame geometry
@@ -437,6 +440,8 @@ def gradient(X, P, G, D):
     gt = np.zeros((3, 3))
     for k in range(P.tri_idx.shape[0]):
         fmax = max(fmax, triangle_gradient(X, P.tri_idx[k], P.tri_grad[k], P.tri_par[k], G, D, xt, gt))
+    for k in range(P.diel_idx.shape[0]):
+        fmax = max(fmax, dielectric_gradient(X, P.diel_idx[k], P.diel_par[k], G, xt, gt))
     xr = np.zeros((rod_element.ROWS, 3))
     gr = np.zeros((rod_element.ROWS, 3))
     for k in range(P.rod_idx.shape[0]):
@@ -640,6 +645,9 @@ def stiffness(X, P, S, with_links):
     xt = np.zeros((3, 3))
     for k in range(P.tri_idx.shape[0]):
         triangle_stiffness(X, P.tri_idx[k], P.tri_grad[k], P.tri_par[k], S, with_links, xt)
+    Hd = np.zeros((9, 9))
+    for k in range(P.diel_idx.shape[0]):
+        dielectric_stiffness(X, P.diel_idx[k], P.diel_par[k], S, xt, Hd)
     xr = np.zeros((rod_element.ROWS, 3))
     Hr = np.zeros((3 * rod_element.ROWS, 3 * rod_element.ROWS))
     for k in range(P.rod_idx.shape[0]):

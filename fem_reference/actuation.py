@@ -20,8 +20,8 @@ from typing import Callable, Iterator, Sequence
 import numpy as np
 
 from results import Result
-from scenes import Scene, SceneError
-from scenes.electric import dielectric_coefficient, mounted_thickness
+from scenes import Scene
+from scenes.electric import check_voltages, dielectric_coefficient, mounted_thickness
 
 from .model import DemesProblem
 from .newton import NewtonResult, NotFactorizable, newton
@@ -36,22 +36,6 @@ MIN_STEP_V = 0.5
 
 STEP_ITERATIONS = 15
 """Newton iterations of one voltage step (from the secant predictor it needs a handful)."""
-
-
-def check_voltages(voltages: Sequence[float]) -> list[float]:
-    """Voltages (V) as floats, finite, >= 0 and increasing; a clear SceneError otherwise."""
-    try:
-        values = [float(v) for v in voltages]
-    except (TypeError, ValueError):
-        raise SceneError("voltages must be numbers in volts, e.g. 0:3000:100") from None
-    if not values:
-        raise SceneError("the voltage list is empty: give e.g. --voltage 0:3000:100")
-    for v in values:
-        if not np.isfinite(v) or v < 0:
-            raise SceneError(f"voltage {v!r} V must be a finite number >= 0")
-    if any(b <= a for a, b in zip(values, values[1:])):
-        raise SceneError("voltages must increase: the sweep is one warm-started path from 0 V")
-    return values
 
 
 @dataclass
@@ -210,8 +194,14 @@ def voltage_sweep(scene: Scene, voltages: Sequence[float], refinement: int | Non
         res.wall_time = time.perf_counter() - t0
         t0, records = time.perf_counter(), []
         if stop is not None:
-            res.status, res.converged = stop.status, False
-            res.message = f"V = {path.voltage:g} V: {stop.detail}; requested V = {v:g} V not reached"
+            res.info["flat"] = abs(res.bending_angle) < FLAT_DEG
+            if res.info["flat"]:  # flat, the film's tension is spent: beyond, it would wrinkle
+                res.status, res.converged = "flat", True
+                res.message = (f"V = {path.voltage:g} V: flat; no stable state at higher voltage (the "
+                             f"film has no tension left); requested V = {v:g} V not reached")
+            else:
+                res.status, res.converged = stop.status, False
+                res.message = f"V = {path.voltage:g} V: {stop.detail}; requested V = {v:g} V not reached"
             yield res
             return
         res.message = f"V = {v:g} V, " + res.message

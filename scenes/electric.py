@@ -10,6 +10,10 @@ over its current area; with an incompressible film h = h_m / J, where h_m is the
 
 from __future__ import annotations
 
+import math
+from typing import Sequence
+
+from .errors import SceneError
 from .scene import Scene
 
 EPSILON_0 = 8.8541878128e-12
@@ -30,3 +34,19 @@ def dielectric_coefficient(scene: Scene, voltage: float | None = None) -> float:
     ``scene.loading.voltage``): c = eps0 eps_r V^2 / (2 h_m)."""
     v = scene.loading.voltage if voltage is None else voltage
     return EPSILON_0 * scene.membrane.permittivity * v * v / (2.0 * mounted_thickness(scene))
+
+
+def check_voltages(voltages: Sequence[float]) -> list[float]:
+    """Voltages (V) as floats, finite, >= 0 and increasing; a clear SceneError otherwise."""
+    try:
+        values = [float(v) for v in voltages]
+    except (TypeError, ValueError):
+        raise SceneError("voltages must be numbers in volts, e.g. 0:3000:100") from None
+    if not values:
+        raise SceneError("the voltage list is empty: give e.g. --voltage 0:3000:100")
+    for v in values:
+        if not math.isfinite(v) or v < 0:
+            raise SceneError(f"voltage {v!r} V must be a finite number >= 0")
+    if any(b <= a for a, b in zip(values, values[1:])):
+        raise SceneError("voltages must increase: the sweep is one warm-started path from 0 V")
+    return values

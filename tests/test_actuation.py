@@ -12,12 +12,12 @@ import pytest
 from skfem import Basis, ElementTriP1, ElementTriP2, ElementVector, MeshTri
 
 import scenes
-from fem_reference.actuation import VoltagePath, check_voltages
+from fem_reference.actuation import VoltagePath
 from fem_reference.dielectric import Dielectric, area_ratio_squared
 from fem_reference.membrane import Membrane
 from fem_reference.model import Evaluation, _mass_form
 from fem_reference.newton import newton
-from scenes.electric import EPSILON_0, dielectric_coefficient
+from scenes.electric import EPSILON_0, check_voltages, dielectric_coefficient
 from validation.electromechanics import (capacitor_energy, free_film_pull_in, free_film_stretch,
                                          free_film_voltage, gent_jm, maxwell_stress)
 
@@ -184,3 +184,69 @@ def test_bad_fields_named(field, value, words):
 def test_bad_voltage_lists(volts):
     with pytest.raises(scenes.SceneError, match="voltage"):
         check_voltages(volts)
+
+
+# ----------------------------------------------------------------------------- DR element
+
+
+def _random_triangle(rng):
+    xl = np.array([[0.0, 0.0, 0.0], [2.0, 0.1, 0.0], [0.3, 1.7, 0.0]]) * 1.3
+    return xl + 0.4 * rng.standard_normal((3, 3))
+
+
+def test_dr_dielectric_gradient_and_hessian_against_finite_differences():
+    from dr.dielectric import dielectric_hessian, dielectric_local
+
+    rng = np.random.default_rng(7)
+    xl = _random_triangle(rng)
+    par = np.array([1.9, coefficient(2000.0, 0.05)])
+    g = np.zeros((3, 3))
+    dielectric_local(xl, par, g, True)
+    H = np.zeros((9, 9))
+    dielectric_hessian(xl, par, H)
+    step = 1e-6
+    for k in range(9):
+        d = np.zeros(9)
+        d[k] = step
+        gp, gm = np.zeros((3, 3)), np.zeros((3, 3))
+        ep = dielectric_local(xl + d.reshape(3, 3), par, gp, True)
+        em = dielectric_local(xl - d.reshape(3, 3), par, gm, True)
+        assert (ep - em) / (2 * step) == pytest.approx(g.ravel()[k], rel=1e-6, abs=1e-12)
+        assert np.allclose((gp - gm).ravel() / (2 * step), H[:, k], rtol=1e-6, atol=1e-10)
+
+
+def test_dr_and_fem_dielectric_energies_agree():
+    """The DR triangles and the FEM's P1 film carry the same electrostatic energy."""
+    import dr
+
+    basis = square_basis(3)
+    c = coefficient(1800.0, 0.05)
+    diel = Dielectric(basis, c)
+    rng = np.random.default_rng(5)
+    x = diel.X * 1.1 + 0.2 * rng.standard_normal(diel.X.shape)
+    m = dr.Model(diel.X)
+    m.add_dielectric(basis.mesh.t.T, c)
+    assert m.dielectric_energy(x)[0] == pytest.approx(diel.energy(x), rel=1e-12)
+    assert m.dielectric_energy(x)[1] == pytest.approx(diel.current_area(x), rel=1e-12)
+
+
+def test_dr_free_film_stretch_matches_zhao_suo():
+    """DR relaxes a free neo-Hookean quarter film (triangles) under voltage to the closed form."""
+    import dr
+
+    mu, H = 0.015, 0.1
+    basis = square_basis(2)
+    X = Dielectric(basis).X
+    lam_p, v_p = free_film_pull_in(mu, H, EPS_R)
+    V = 0.9 * v_p
+    m = dr.Model(X)
+    m.add_triangles(basis.mesh.t.T, E=3 * mu, thickness=H, prestretch=1.0, law="neo-hookean",
+                    tension_only=False)
+    m.add_dielectric(basis.mesh.t.T, coefficient(V, H))
+    m.support(np.arange(len(X)), axes="z")
+    m.support(np.flatnonzero(np.isclose(X[:, 0], 0)), axes="x")
+    m.support(np.flatnonzero(np.isclose(X[:, 1], 0)), axes="y")
+    res = dr.relax(m, tol=1e-9, force_scale=mu * H * L)
+    assert res.converged, res.message
+    corner = np.argmax(X[:, 0] + X[:, 1])
+    assert res.x[corner, 0] / L == pytest.approx(free_film_stretch(V, mu, H, EPS_R), rel=1e-6)

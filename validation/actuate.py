@@ -134,15 +134,20 @@ class Characteristics:
     notes: list[str] = field(default_factory=list)
 
 
+STEEP_FACTOR = 2.0
+"""The energy rises steeply where its slope against stroke is this many times the initial one."""
+
+
 def steep_rise(stroke: np.ndarray, energy: np.ndarray) -> float:
-    """Stroke (deg) from which the energy rises steeply: where the slope dE/dstroke first
-    exceeds twice its mean over the sweep (NaN with fewer than 3 points or no rise)."""
-    if stroke.size < 3 or stroke[-1] <= stroke[0]:
+    """Stroke (deg) from which the energy rises steeply: the start of the first interval whose
+    slope dE/dstroke exceeds STEEP_FACTOR times the first interval's (NaN if none, or with
+    fewer than 3 points)."""
+    ds = np.diff(stroke)
+    if stroke.size < 3 or ds[0] <= 0:
         return float("nan")
-    slope = np.diff(energy) / np.maximum(np.diff(stroke), 1e-12)
-    mean = (energy[-1] - energy[0]) / (stroke[-1] - stroke[0])
-    steep = np.flatnonzero(slope > 2 * mean) if mean > 0 else np.array([], int)
-    return float(stroke[steep[0]]) if steep.size else float("nan")
+    slope = np.diff(energy) / np.where(ds > 0, ds, np.nan)
+    steep = np.flatnonzero(slope[1:] > STEEP_FACTOR * slope[0]) if slope[0] > 0 else np.array([], int)
+    return float(stroke[steep[0] + 1]) if steep.size else float("nan")
 
 
 def characteristics(rows: Sequence[dict]) -> Characteristics:
