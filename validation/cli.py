@@ -114,6 +114,23 @@ def cmd_actuate(args: argparse.Namespace) -> int:
     return 0 if all(r[-1]["converged"] for r in runs.values()) else 2
 
 
+def cmd_calibrate(args: argparse.Namespace) -> int:
+    from . import calibrate
+
+    scene = load_scene(args)
+    if args.prestretch:
+        scene = scene.updated(prestretch=_prestretches(args, scene)[-1])
+    cal = calibrate.calibrate(scene, args.refinement or 0)
+    text = calibrate.describe(cal)
+    print(text)
+    out = Path(args.out)
+    atomic_write_text(out / "calibration.txt", text + "\n")
+    atomic_write_text(out / "calibration.json", json.dumps(
+        {"membrane_E": cal.membrane_E, "frame_E": cal.frame_E, "sensitivities": cal.sensitivities,
+         "residuals": cal.residuals, "implications": cal.implications, "tried": cal.tried}, indent=1))
+    return 0
+
+
 def cmd_validate(args: argparse.Namespace) -> int:
     from .validate import validate
 
@@ -146,6 +163,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--solver", choices=("dr", "fem", "both"), default="fem", help="which solver (both: agreement reported)")
     p.add_argument("--refinement", type=int, help="FEM: halve the element size this many times")
     p.set_defaults(func=cmd_actuate)
+    p = sub.add_parser("calibrate", help="fit the film and frame moduli to the experiment (flat at 2.25 kV, the 0 V shape kept)")
+    _common(p, "out/calibrate")
+    p.add_argument("--refinement", type=int, help="FEM: halve the element size this many times")
+    p.set_defaults(func=cmd_calibrate)
     p = sub.add_parser("validate", help="DR against the FEM reference: shapes, energies, speed, hard cases; writes a report")
     p.add_argument("scene", nargs="?", default="demes_paper", help="scene .toml or built-in name (default: demes_paper)")
     p.add_argument("--out", help="report folder (default: reports/<scene>[_quick])")

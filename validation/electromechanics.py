@@ -88,3 +88,23 @@ def free_film_stretch(voltage: float, mu: float, thickness: float, permittivity:
         return 1.0
     return float(brentq(lambda l: free_film_voltage(l, mu, thickness, permittivity, jm) - voltage,
                         1.0, lam_p, xtol=1e-14, rtol=1e-14))
+
+
+def flat_film_tension(law: str, E: float, thickness: float, prestretch: float) -> float:
+    """Isotropic tension (N/mm) of the flat film mounted at ``prestretch`` (mounted thickness
+    h mm, E MPa): the link-net law 3/2 E h (lambda - 1); neo-Hookean E/3 h (lambda^2 - lambda^-4)."""
+    if law == "linear":
+        return 1.5 * E * thickness * (prestretch - 1.0)
+    if law == "neo-hookean":
+        return E / 3.0 * thickness * (prestretch**2 - prestretch**-4)
+    raise ValueError(f"membrane law {law!r} has no closed-form flat tension here")
+
+
+def zero_tension_voltage(tension: float, thickness: float, permittivity: float) -> float:
+    """Voltage (V) at which the Maxwell stress cancels a flat film's ``tension`` (N/mm):
+    eps0 eps_r V^2 / h = T, with h the film's (electrical) thickness, mm.
+
+    A DEMES frame is flat-stable only once its film has (almost) no tension left, so this is
+    the flattening voltage up to the frame's small buckling tension (docs/actuation.md).
+    """
+    return float(np.sqrt(tension * thickness / (EPSILON_0 * permittivity)))
