@@ -1,4 +1,4 @@
-"""The ``demes`` command line: solve (DR), fem (reference), bench, validate."""
+"""The ``demes`` command line: solve (DR), fem (reference), actuate, calibrate, bench, validate."""
 
 from __future__ import annotations
 
@@ -109,7 +109,7 @@ def cmd_actuate(args: argparse.Namespace) -> int:
         print(texts[-1])
     stroke_voltage(runs, out / "stroke_voltage.png")
     energy_stroke(runs, out / "energy_stroke.png")
-    actuate.write_summary(out, "\n".join(texts))
+    actuate.write_summary(out, "\n".join(["# Against the experiment (docs/actuation.md)", *texts]))
     print(f"wrote {out}: CSV, .pvd series (time = volts), stroke_voltage.png, energy_stroke.png")
     return 0 if all(r[-1]["converged"] for r in runs.values()) else 2
 
