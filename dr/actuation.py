@@ -17,13 +17,11 @@ import numpy as np
 
 from results import Result
 from scenes import Scene
-from scenes.electric import check_voltages, dielectric_coefficient, mounted_thickness
+from scenes.electric import (FLAT_DEG, check_voltages, dielectric_coefficient, mounted_thickness,
+                             path_end)
 
 from .demes import build, solve
 from .relax import relax
-
-FLAT_DEG = 1.0
-"""Bending angle (deg) below which the DEMES counts as flat."""
 
 BISECTIONS = 4
 """Halvings of a failed voltage step before the path counts as ended (pull-in)."""
@@ -74,14 +72,8 @@ def voltage_sweep(scene: Scene, voltages: Sequence[float], progress: bool = Fals
         out.iterations, out.wall_time = iterations, wall
         out.info["requested_voltage_V"] = v
         if stop is not None:
-            out.info["flat"] = abs(out.bending_angle) < FLAT_DEG
-            if out.info["flat"]:  # flat, the film's tension is spent: beyond, it would wrinkle
-                out.status, out.converged = "flat", True
-                out.message = (f"V = {v_now:g} V: flat; no stable state at higher voltage (the "
-                             f"film has no tension left); requested V = {v:g} V not reached")
-            else:
-                out.status, out.converged = stop[0], False
-                out.message = f"V = {v_now:g} V: {stop[1]}; requested V = {v:g} V not reached"
+            out.status, out.converged, out.message = path_end(out.bending_angle, v_now, v, *stop)
+            out.info["flat"] = out.status == "flat"
             yield out
             return
         out.info["flat"] = abs(out.bending_angle) < FLAT_DEG

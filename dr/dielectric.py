@@ -83,23 +83,6 @@ def dielectric_gradient(X, idx, par, G, xl, gl):
     return fmax
 
 
-@njit(cache=True, error_model="numpy")
-def dielectric_stiffness(X, idx, par, S, xl, H):
-    """Add the Gershgorin row sums of one triangle's Hessian to S (N/mm); xl (3, 3), H (9, 9)."""
-    for a in range(3):
-        for i in range(3):
-            xl[a, i] = X[idx[a], i]
-    dielectric_hessian(xl, par, H)
-    for a in range(3):
-        row = 0.0
-        for i in range(3):
-            acc = 0.0
-            for col in range(9):
-                acc += abs(H[3 * a + i, col])
-            row = max(row, acc)
-        S[idx[a]] += row
-
-
 def energies(x: np.ndarray, triangles: np.ndarray, flat_area: np.ndarray, coefficient: float
              ) -> tuple[float, float]:
     """(electrostatic energy -sum c a^2 / A, current area sum a) of triangles at positions x

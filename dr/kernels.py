@@ -26,7 +26,7 @@ import numpy as np
 from numba import njit
 
 from . import rod as rod_element
-from .dielectric import dielectric_gradient, dielectric_stiffness
+from .dielectric import dielectric_gradient, dielectric_hessian
 from .triangles import triangle_gradient, triangle_local, triangle_stiffness
 from .vec import add, add_to, axpy, cross, dot, get, norm, scale, sub, unit_vjp
 
@@ -646,8 +646,13 @@ def stiffness(X, P, S, with_links):
     for k in range(P.tri_idx.shape[0]):
         triangle_stiffness(X, P.tri_idx[k], P.tri_grad[k], P.tri_par[k], S, with_links, xt)
     Hd = np.zeros((9, 9))
-    for k in range(P.diel_idx.shape[0]):
-        dielectric_stiffness(X, P.diel_idx[k], P.diel_par[k], S, xt, Hd)
+    for k in range(P.diel_idx.shape[0]):  # the dielectric's Hessian (it softens): its size bounds
+        idx = P.diel_idx[k]
+        for a in range(3):
+            for c in range(3):
+                xt[a, c] = X[idx[a], c]
+        dielectric_hessian(xt, P.diel_par[k], Hd)
+        _gershgorin(Hd, idx, S)
     xr = np.zeros((rod_element.ROWS, 3))
     Hr = np.zeros((3 * rod_element.ROWS, 3 * rod_element.ROWS))
     for k in range(P.rod_idx.shape[0]):

@@ -21,15 +21,13 @@ import numpy as np
 
 from results import Result
 from scenes import Scene
-from scenes.electric import check_voltages, dielectric_coefficient, mounted_thickness
+from scenes.electric import (FLAT_DEG, check_voltages, dielectric_coefficient, mounted_thickness,
+                             path_end)
 
 from .model import DemesProblem
 from .newton import NewtonResult, NotFactorizable, newton
 from .solve import (SNAP_ITERATIONS, TOLERANCE, Continuation, Outcome, StepRecord,
                     _neutral_tolerance, _refinement, lowest_free_mode, make_result)
-
-FLAT_DEG = 1.0
-"""Bending angle (deg) below which the DEMES counts as flat."""
 
 MIN_STEP_V = 0.5
 """Smallest voltage step (V): a branch that cannot be followed in smaller steps has ended."""
@@ -194,14 +192,9 @@ def voltage_sweep(scene: Scene, voltages: Sequence[float], refinement: int | Non
         res.wall_time = time.perf_counter() - t0
         t0, records = time.perf_counter(), []
         if stop is not None:
-            res.info["flat"] = abs(res.bending_angle) < FLAT_DEG
-            if res.info["flat"]:  # flat, the film's tension is spent: beyond, it would wrinkle
-                res.status, res.converged = "flat", True
-                res.message = (f"V = {path.voltage:g} V: flat; no stable state at higher voltage (the "
-                             f"film has no tension left); requested V = {v:g} V not reached")
-            else:
-                res.status, res.converged = stop.status, False
-                res.message = f"V = {path.voltage:g} V: {stop.detail}; requested V = {v:g} V not reached"
+            res.status, res.converged, res.message = path_end(
+                res.bending_angle, path.voltage, v, stop.status, stop.detail)
+            res.info["flat"] = res.status == "flat"
             yield res
             return
         res.message = f"V = {v:g} V, " + res.message

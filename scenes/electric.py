@@ -16,6 +16,9 @@ from typing import Sequence
 from .errors import SceneError
 from .scene import Scene
 
+FLAT_DEG = 1.0
+"""Bending angle (deg) below which an actuated DEMES counts as flat."""
+
 EPSILON_0 = 8.8541878128e-12
 """Vacuum permittivity, N/V^2 (numerically F/m; with V in volts and mm lengths eps0 E^2 is in MPa)."""
 
@@ -50,3 +53,14 @@ def check_voltages(voltages: Sequence[float]) -> list[float]:
     if any(b <= a for a, b in zip(values, values[1:])):
         raise SceneError("voltages must increase: the sweep is one warm-started path from 0 V")
     return values
+
+
+def path_end(bending_angle: float, voltage: float, requested: float, status: str, detail: str
+             ) -> tuple[str, bool, str]:
+    """(status, converged, message) of the last state of a voltage path that could go no
+    further. A flat state is a regular end (status 'flat'): past it the film has no tension left
+    and no stable state (it would wrinkle). Otherwise the solver's ``status`` and ``detail``."""
+    if abs(bending_angle) < FLAT_DEG:
+        return "flat", True, (f"V = {voltage:g} V: flat; no stable state at higher voltage (the film "
+                              f"has no tension left); requested V = {requested:g} V not reached")
+    return status, False, f"V = {voltage:g} V: {detail}; requested V = {requested:g} V not reached"

@@ -18,11 +18,9 @@ from tqdm import tqdm
 
 from results import Result, atomic_write_text, write_pvd
 from scenes import Scene, SceneError
+from scenes.electric import FLAT_DEG
 
 from .tables import format_table, write_csv
-
-FLAT_DEG = 1.0
-"""Bending angle (deg) below which the DEMES counts as flat (as the FEM path's stop)."""
 
 PAPER_SUBSTANTIAL_V, PAPER_FLAT_V = 1000.0, 2250.0
 """The experiment (docs/actuation.md): substantial change of shape near 1 kV, flat near 2.25 kV."""
