@@ -288,3 +288,20 @@ def test_demes_tangent_with_voltage_and_film_offset(element):
     Kv = ev.tangent @ v
     assert de == pytest.approx(ev.gradient @ v, rel=1e-7)
     assert np.linalg.norm(dg - Kv) <= 1e-6 * np.linalg.norm(Kv)
+
+
+def test_flattening_voltage_closed_form_and_sensitivities():
+    """Table I's film (link-net law, E h = 0.05 N/mm, 150 %) loses its tension at
+    V = sqrt(3/2 E h (lambda - 1) h / eps) (the FEM sweep of the strip DEMES ends flat at 6748 V)."""
+    from validation.calibrate import fit_membrane_modulus, flattening_voltage, sensitivity
+
+    scene = scenes.paper_demes(1.5, "strip")
+    hand = np.sqrt(1.5 * 1.0 * 0.05 * 0.5 * 0.05 / (EPSILON_0 * 4.65))
+    assert flattening_voltage(scene) == pytest.approx(hand, rel=1e-12)
+    assert hand == pytest.approx(6748.4, abs=0.1)
+    expected = {"membrane.E": 0.5, "loading.prestretch": 0.5 * 1.5 / 0.5, "membrane.thickness": 1.0,
+                "frame.E": 0.0}
+    for key, value in expected.items():
+        assert sensitivity(scene, key) == pytest.approx(value, abs=1e-6)
+    e_fit = fit_membrane_modulus(scene, 2250.0)
+    assert e_fit == pytest.approx((2250.0 / hand) ** 2, rel=1e-9)
