@@ -3,9 +3,9 @@
 The pre-stretched equilibrium at 0 V comes from :func:`dr.solve` (the quasi-static pre-stretch
 path). The voltage is then raised along the requested list, each state relaxed from the one
 before. A relaxation that fails (no convergence, divergence, a fold) is retried from the last
-good state with the voltage step halved, ``BISECTIONS`` times; if it still fails, the path has
-met an electromechanical instability and stops with status ``pull_in`` and the voltages that
-bracket it. The sweep also stops once the frame is flat (bending angle below ``FLAT_DEG``).
+good state with the voltage step halved, ``BISECTIONS`` times; if it still fails, the path stops
+with the voltages that bracket the failure: status ``pull_in`` (an electromechanical instability)
+when no equilibrium was found there, or the relaxation's own status for a fold or a contact. The sweep also stops once the frame is flat (bending angle below ``FLAT_DEG``).
 """
 
 from __future__ import annotations
@@ -65,9 +65,7 @@ def voltage_sweep(scene: Scene, voltages: Sequence[float], progress: bool = Fals
             if res.converged:
                 state, v_now = res, trial
                 continue
-            stop = ("pull_in", f"electromechanical instability (pull-in) between V = {v_now:.1f} V "
-                    f"and {bad[0]:.1f} V: the relaxation failed there ({bad[1].status}: "
-                    f"{bad[1].message})")
+            stop = _stop(bad[1], v_now, bad[0], scene)
         out = _finish(state, scene.updated(**{"loading.voltage": v_now}), dm, v_now, flat_area)
         out.iterations, out.wall_time = iterations, wall
         out.info["requested_voltage_V"] = v
@@ -80,6 +78,24 @@ def voltage_sweep(scene: Scene, voltages: Sequence[float], progress: bool = Fals
         yield out
         if out.info["flat"]:
             return
+
+
+GEOMETRIC_STOPS = ("membrane_fold", "self_contact")
+"""Relaxation stops that are a geometric event, not a loss of equilibrium."""
+
+
+def _stop(failed: Result, v_good: float, v_bad: float, scene: Scene) -> tuple[str, str]:
+    """(status, detail) of a path that cannot pass ``v_bad``: a fold or a contact keeps its own
+    status; a relaxation that found no equilibrium there is a pull-in."""
+    where = f"between V = {v_good:.1f} V and {v_bad:.1f} V"
+    if failed.status in GEOMETRIC_STOPS:
+        detail = f"{failed.status} {where}: {failed.message}"
+        if scene.dr.membrane_net == "clustered":
+            detail += ("; a clustered net's nodes slide along their cables, and the dielectric's "
+                       "softening folds it: use dr.membrane_net = 'links' or 'triangles'")
+        return failed.status, detail
+    return "pull_in", (f"electromechanical instability (pull-in) {where}: no equilibrium found "
+                       f"there ({failed.status}: {failed.message})")
 
 
 def _finish(res: Result, scene: Scene, dm, voltage: float, flat_area: float) -> Result:
