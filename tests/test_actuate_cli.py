@@ -43,6 +43,9 @@ def test_actuate_both_solvers(tmp_path, capsys):
         assert float(a["bending_angle [deg]"]) == pytest.approx(float(b["bending_angle [deg]"]), abs=0.05)
     text = (out / "actuate_fem_strip.pvd").read_text()
     assert 'timestep="1500"' in text and (out / "stroke_voltage.png").exists()
+    report = (out / "report.md").read_text()
+    assert "## Against the experiment" in report and "stroke_voltage.png" in report
+    assert "data:image/png;base64" in (out / "index.html").read_text()
 
 
 def test_voltage_labels_exact_on_the_grid():

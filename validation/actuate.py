@@ -242,3 +242,34 @@ def table(rows: Sequence[dict], title: str) -> str:
 def write_summary(out_dir: Path, text: str) -> Path:
     """The printed summary, kept beside the CSV."""
     return atomic_write_text(Path(out_dir) / "actuate.txt", text + "\n")
+
+
+EXPERIMENT = ("The experiment (docs/actuation.md): all samples change shape substantially at about "
+              f"{PAPER_SUBSTANTIAL_V / 1000:g} kV and are flat at about {PAPER_FLAT_V / 1000:g} kV (Fig. 4); "
+              f"the energies rise steeply near {PAPER_STEEP_STROKE['numerical']:.0f} deg of stroke "
+              f"(numerical) and {PAPER_STEEP_STROKE['physical']:.0f} deg (physical) (Fig. 5).")
+
+SUMMARY = (("solver", "solver", ""), ("theta0", "angle at 0 V [deg]", ".2f"),
+           ("stroke_at_1kV", "stroke at 1 kV [deg]", ".2f"), ("flat_voltage", "flat at [V]", ".0f"),
+           ("pull_in_voltage", "pull-in after [V]", ".0f"), ("steep_stroke", "E_cap steep from [deg]", ".0f"),
+           ("end", "path end", ""))
+
+
+def write_report(out_dir: Path, scene: Scene, runs: dict[str, Sequence[dict]],
+                 figures: Sequence[Path], notes: Sequence[str]) -> dict[str, Path]:
+    """``report.md`` and a self-contained ``index.html``: the section "Against the experiment"."""
+    from .report import Section, Table, to_html, to_markdown
+
+    rows = []
+    for solver, sweep in runs.items():
+        c = characteristics(sweep)
+        rows.append({"solver": solver.upper(), "theta0": c.theta0, "stroke_at_1kV": c.stroke_at_1kV,
+                     "flat_voltage": c.flat_voltage, "pull_in_voltage": c.pull_in_voltage,
+                     "steep_stroke": c.steep_stroke, "end": sweep[-1]["status"] if sweep else "-"})
+    title = (f"{scene.name}: voltage actuation, frame model '{scene.frame.model}', "
+             f"pre-stretch {scene.prestretch:g}")
+    sections = [Section("Against the experiment", [EXPERIMENT, Table(SUMMARY, rows), *notes, *figures])]
+    sections += [Section(f"{solver.upper()} voltage sweep", [Table(TABLE, sweep)]) for solver, sweep in runs.items()]
+    out = Path(out_dir)
+    return {"md": atomic_write_text(out / "report.md", to_markdown(sections, title, out)),
+            "html": atomic_write_text(out / "index.html", to_html(sections, title))}

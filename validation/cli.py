@@ -100,17 +100,18 @@ def cmd_actuate(args: argparse.Namespace) -> int:
         runs[solver] = rows
         title = (f"{scene.name}: {solver.upper()} voltage sweep, frame model '{scene.frame.model}', "
                  f"pre-stretch {scene.prestretch:g}")
-        texts += [actuate.table(rows, title),
-                  actuate.describe(actuate.characteristics(rows), solver, volts.values[-1])]
-        texts += [f"  {r['status']}: {r['message']}" for r in rows if not r["converged"]]
-        print("\n".join(texts[-2:]), flush=True)
-    if len(runs) == 2:
-        texts.append(actuate.compare(runs["dr"], runs["fem"]))
-        print(texts[-1])
-    stroke_voltage(runs, out / "stroke_voltage.png")
-    energy_stroke(runs, out / "energy_stroke.png")
+        block = [actuate.table(rows, title),
+                 actuate.describe(actuate.characteristics(rows), solver, volts.values[-1])]
+        block += [f"  {r['status']}: {r['message']}" for r in rows if not r["converged"]]
+        print("\n".join(block), flush=True)
+        texts += block
+    notes = [actuate.compare(runs["dr"], runs["fem"])] if len(runs) == 2 else []
+    print("\n".join(notes))
+    texts += notes
+    figures = [stroke_voltage(runs, out / "stroke_voltage.png"), energy_stroke(runs, out / "energy_stroke.png")]
     actuate.write_summary(out, "\n".join(["# Against the experiment (docs/actuation.md)", *texts]))
-    print(f"wrote {out}: CSV, .pvd series (time = volts), stroke_voltage.png, energy_stroke.png")
+    actuate.write_report(out, scene, runs, figures, notes)
+    print(f"wrote {out}: report.md, index.html, CSV, .pvd series (time = volts), figures")
     return 0 if all(r[-1]["converged"] for r in runs.values()) else 2
 
 
