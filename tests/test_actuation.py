@@ -265,31 +265,6 @@ def test_dr_free_film_stretch_matches_zhao_suo():
     assert np.array_equal(x_none, x_zero) and s_none == pytest.approx(1 / 1.2, rel=1e-6)
 
 
-@pytest.mark.parametrize("element", ["P1", "P2"])
-def test_demes_tangent_with_voltage_and_film_offset(element):
-    """The coupled DEMES at 3 kV (the film offset maps the dielectric's forces too): gradient and
-    tangent against finite differences."""
-    from fem_reference.model import DemesProblem
-
-    scene = scenes.paper_demes(1.2, "strip", **{"mesh.divisions": 6, "frame.film_offset": True,
-                                                "loading.voltage": 3000.0})
-    pb = DemesProblem(scene, 0, element)
-    rng = np.random.default_rng(0)
-    y = pb.initial_guess() + 0.05 * rng.standard_normal(pb.n_dofs)
-    fixed = np.setdiff1d(np.arange(pb.n_dofs), pb.free)
-    y[fixed] = pb.reference()[fixed]
-    ev = pb.evaluate(y)
-    assert ev.parts["electrostatic"] < 0
-    v = np.zeros(pb.n_dofs)
-    v[pb.free] = rng.standard_normal(pb.free.size)
-    h = 1e-6
-    de = (pb.energy(y + h * v) - pb.energy(y - h * v)) / (2 * h)
-    dg = (pb.evaluate(y + h * v, 1).gradient - pb.evaluate(y - h * v, 1).gradient) / (2 * h)
-    Kv = ev.tangent @ v
-    assert de == pytest.approx(ev.gradient @ v, rel=1e-7)
-    assert np.linalg.norm(dg - Kv) <= 1e-6 * np.linalg.norm(Kv)
-
-
 def test_flattening_voltage_closed_form_and_sensitivities():
     """Table I's film (link-net law, E h = 0.05 N/mm, 150 %) loses its tension at
     V = sqrt(3/2 E h (lambda - 1) h / eps) (the FEM sweep of the strip DEMES ends flat at 6748 V)."""
