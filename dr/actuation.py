@@ -20,7 +20,7 @@ from scenes import Scene
 from scenes.electric import (FLAT_DEG, check_voltages, dielectric_coefficient, mounted_thickness,
                              path_end)
 
-from .demes import build, solve
+from .demes import build, check_voltage_net, solve
 from .relax import relax
 
 BISECTIONS = 4
@@ -38,6 +38,7 @@ def voltage_sweep(scene: Scene, voltages: Sequence[float], progress: bool = Fals
     ``film_thickness_mm`` (mean current thickness).
     """
     volts = check_voltages(voltages)
+    check_voltage_net(scene, volts[-1])
     scene = scene.updated(**{"loading.voltage": 0.0})
     state = solve(scene, progress=progress)
     dm = build(scene)
@@ -65,7 +66,7 @@ def voltage_sweep(scene: Scene, voltages: Sequence[float], progress: bool = Fals
             if res.converged:
                 state, v_now = res, trial
                 continue
-            stop = _stop(bad[1], v_now, bad[0], scene)
+            stop = _stop(bad[1], v_now, bad[0])
         out = _finish(state, scene.updated(**{"loading.voltage": v_now}), dm, v_now, flat_area)
         out.iterations, out.wall_time = iterations, wall
         out.info["requested_voltage_V"] = v
@@ -84,15 +85,12 @@ GEOMETRIC_STOPS = ("membrane_fold", "self_contact")
 """Relaxation stops that are a geometric event, not a loss of equilibrium."""
 
 
-def _stop(failed: Result, v_good: float, v_bad: float, scene: Scene) -> tuple[str, str]:
+def _stop(failed: Result, v_good: float, v_bad: float) -> tuple[str, str]:
     """(status, detail) of a path that cannot pass ``v_bad``: a fold or a contact keeps its own
     status; a relaxation that found no equilibrium there is a pull-in."""
     where = f"between V = {v_good:.1f} V and {v_bad:.1f} V"
     if failed.status in GEOMETRIC_STOPS:
         detail = f"{failed.status} {where}: {failed.message}"
-        if scene.dr.membrane_net == "clustered":
-            detail += ("; a clustered net's nodes slide along their cables, and the dielectric's "
-                       "softening folds it: use dr.membrane_net = 'links' or 'triangles'")
         return failed.status, detail
     return "pull_in", (f"electromechanical instability (pull-in) {where}: no equilibrium found "
                        f"there ({failed.status}: {failed.message})")

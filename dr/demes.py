@@ -41,6 +41,17 @@ class DemesModel:
     spacing: float  # mm
 
 
+def check_voltage_net(scene: Scene, voltage: float) -> None:
+    """A voltage needs a net that holds its nodes in the plane: the clustered net's nodes slide
+    along their cables, and the dielectric's softening folds it at once (measured: Table I,
+    strip, 28 divisions, folded between 125 V and 148 V)."""
+    if voltage > 0 and scene.dr.membrane_net == "clustered":
+        raise SceneError(
+            f"a voltage ({voltage:g} V) with dr.membrane_net = 'clustered': its nodes slide along "
+            "their cables and the film's electrostatic softening folds the net; use "
+            "dr.membrane_net = 'links' or 'triangles'")
+
+
 def cable_area(scene: Scene, spacing: float) -> float:
     """Cable area (mm^2) that makes the net a film of the scene's thickness: A = sqrt(3)/2 h s.
 
@@ -55,6 +66,7 @@ def build(scene: Scene, prestretch: float | None = None) -> DemesModel:
     lam = scene.prestretch if prestretch is None else float(prestretch)
     if lam < 1.0:
         raise SceneError(f"pre-stretch {lam:g} is below 1: it is a stretch ratio (1.5 = 150 %)")
+    check_voltage_net(scene, scene.loading.voltage)
     if scene.dr.membrane_net == "triangles":
         return _build_triangles(scene, lam)
     if scene.membrane.law != "linear":

@@ -63,3 +63,11 @@ def test_bad_voltage_ranges(text, words, tmp_path, capsys):
     assert code == 1
     err = capsys.readouterr().err
     assert words in err and "Traceback" not in err
+
+
+def test_a_voltage_on_the_clustered_net_is_refused(tmp_path, capsys):
+    code = main(["actuate", "--solver", "dr", "--set", "mesh.divisions=6", "--voltage", "0:1000:500",
+                 "--out", str(tmp_path), "--no-progress"])
+    assert code == 1
+    err = capsys.readouterr().err
+    assert "dr.membrane_net" in err and "Traceback" not in err
