@@ -16,5 +16,7 @@ from .errors import DRError
 from .model import Model
 from .demes import build, solve, sweep
 from .relax import relax
+from .actuation import voltage_sweep
 
-__all__ = ["Model", "relax", "solve", "sweep", "build", "DRError", "FrameContact", "MembraneFold", "FilmCrossing"]
+__all__ = ["Model", "relax", "solve", "sweep", "voltage_sweep", "build", "DRError", "FrameContact", "MembraneFold",
+           "FilmCrossing"]

@@ -11,6 +11,7 @@ from scipy.spatial import cKDTree
 
 from results import Result
 from scenes import Scene, SceneError
+from scenes.electric import dielectric_coefficient
 from scenes.mesh import membrane_mesh
 from scenes.scene import prestretch_value
 
@@ -44,6 +45,17 @@ class DemesModel:
     spacing: float  # mm
 
 
+def check_voltage_net(scene: Scene, voltage: float) -> None:
+    """A voltage needs a net that holds its nodes in the plane: the clustered net's nodes slide
+    along their cables, and the dielectric's softening folds it at once (measured: Table I,
+    strip, 28 divisions, folded between 125 V and 148 V)."""
+    if voltage > 0 and scene.dr.membrane_net == "clustered":
+        raise SceneError(
+            f"a voltage ({voltage:g} V) with dr.membrane_net = 'clustered': its nodes slide along "
+            "their cables and the film's electrostatic softening folds the net; use "
+            "dr.membrane_net = 'links' or 'triangles'")
+
+
 def cable_area(scene: Scene, spacing: float) -> float:
     """Cable area (mm^2) that makes the net a film of the scene's thickness: A = sqrt(3)/2 h s.
 
@@ -56,6 +68,7 @@ def cable_area(scene: Scene, spacing: float) -> float:
 def build(scene: Scene, prestretch: float | None = None) -> DemesModel:
     """Build the DR model of ``scene`` at ``prestretch`` (default: the scene's)."""
     lam = scene.prestretch if prestretch is None else prestretch_value("pre-stretch", prestretch)
+    check_voltage_net(scene, scene.loading.voltage)
     if scene.dr.membrane_net == "triangles":
         return _build_triangles(scene, lam)
     if scene.membrane.law != "linear":
@@ -143,6 +156,7 @@ def build(scene: Scene, prestretch: float | None = None) -> DemesModel:
         else:
             m.add_link(c[:-1], c[1:], EA, rest_length=flat / lam, tension_only=tension_only)
 
+    m.add_dielectric(net.triangles, dielectric_coefficient(scene))
     start = nodes.copy()
     start[:, 2] += np.where(m.fixed[:, 2], 0.0, scene.initial_lift(nodes[:, :2]))
     contact, final_checks = None, []
@@ -244,6 +258,7 @@ def _build_triangles(scene: Scene, lam: float) -> DemesModel:
     m.add_rod(mesh.frame_nodes, EA=frame.EA, EI=frame.EI, closed=True,
               EI_strong=frame.EI_strong if strip else None, GJ=frame.GJ if strip else None,
               bond=mesh.bond_nodes if strip else None)
+    m.add_dielectric(mesh.triangles, dielectric_coefficient(scene))
     start = nodes.copy()
     start[:, 2] += np.where(m.fixed[:, 2], 0.0, scene.initial_lift(nodes[:, :2]))
     contact, final_checks = None, []

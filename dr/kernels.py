@@ -29,7 +29,7 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
-from . import beams, clusters, links, rod, strips, triangles
+from . import beams, clusters, dielectric, links, rod, strips, triangles
 from .blocks import add_reflected
 from .frames import Z0, gather, node_frame, node_frame_vjp, scatter
 from .vec import add_to, axpy, dot, get, scale, sub
@@ -73,6 +73,8 @@ class Packed(NamedTuple):
     rod_idx: np.ndarray  # (r, 7) rod vertex stencils, see dr.rod
     rod_par: np.ndarray  # (r, dr.rod.N_PAR)
     rod_blocks: np.ndarray  # (r, 7, 6) scratch: mass blocks in the vertex's material frame
+    diel_idx: np.ndarray  # (d, 3) triangles of the dielectric film, see dr.dielectric
+    diel_par: np.ndarray  # (d, 2) flat area (mm^2), coefficient c (N/mm)
 
     @property
     def n_total(self) -> int:
@@ -160,6 +162,7 @@ def gradient(X, P, G, D):
     fmax = max(fmax, strips.gradient(X, P, G, D))
     fmax = max(fmax, triangles.gradient(X, P, G, D))
     fmax = max(fmax, rod.gradient(X, P, G, D))
+    fmax = max(fmax, dielectric.gradient(X, P, G, D))
     pull_back_virtual(X, G, P)
     if D.shape[0] > 0:
         pull_back_blocks(D, P)
@@ -194,6 +197,7 @@ def stiffness(X, P, S, with_links):
     strips.stiffness(X, P, S, with_links)
     triangles.stiffness(X, P, S, with_links)
     rod.stiffness(X, P, S, with_links)
+    dielectric.stiffness(X, P, S, with_links)
     n = P.n + P.bond_nodes.shape[0]
     base = n + P.off_geo.shape[0]
     for k in range(P.off_geo.shape[0]):

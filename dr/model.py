@@ -29,6 +29,7 @@ import numpy as np
 
 from .errors import DRError
 from . import rod as rod_element
+from . import dielectric as diel_element
 from . import triangles as tri_element
 from .beams import curvatures
 from .frames import node_frame
@@ -99,6 +100,8 @@ class Model:
         self._bonds: list[tuple[np.ndarray, np.ndarray]] = []  # (3 nodes, 3 weights)
         self._triangles: list[tuple[np.ndarray, float, float, float, bool, int]] = []
         self._rods: list[_Rod] = []
+        self._dielectric: tuple[np.ndarray, np.ndarray] | None = None  # triangles, flat areas
+        self.dielectric_coefficient = 0.0  # c (N/mm), see add_dielectric
         self.triangles: np.ndarray | None = None  # optional surface for VTK output
 
     # ------------------------------------------------------------------ helpers
@@ -340,6 +343,33 @@ class Model:
         self._triangles.append((t, _positive("membrane E (MPa)", E), _positive("membrane thickness (mm)", thickness),
                                 _positive("pre-stretch", prestretch), bool(tension_only), tri_element.LAWS[law]))
 
+    def add_dielectric(self, triangles: np.ndarray, coefficient: float) -> None:
+        """Make the film over node triples ``triangles`` an ideal dielectric (:mod:`dr.dielectric`).
+
+        Its energy is -c a^2 / A per triangle (current area a, flat area A in the reference),
+        c = ``coefficient`` (N/mm, >= 0) from :func:`scenes.electric.dielectric_coefficient`;
+        change the voltage by setting ``dielectric_coefficient``. The reference must be flat.
+        """
+        t = np.asarray(triangles)
+        if t.ndim != 2 or t.shape[1] != 3 or t.shape[0] == 0:
+            raise DRError("dielectric triangles must be a non-empty (t, 3) array of node indices")
+        t = self._indices("dielectric triangle nodes", t.ravel()).reshape(-1, 3)
+        c = float(coefficient)
+        if not np.isfinite(c) or c < 0:
+            raise DRError(f"dielectric coefficient = {coefficient!r} must be a number >= 0 (N/mm)")
+        _, area = tri_element.shape_gradients(self.nodes[t][:, :, :2])
+        if np.any(area <= 1e-12 * np.ptp(self.nodes[:, :2]) ** 2):
+            raise DRError("a dielectric triangle has no area: its three nodes lie on one line")
+        self._dielectric = (t, area)
+        self.dielectric_coefficient = c
+
+    def dielectric_energy(self, x: np.ndarray) -> tuple[float, float]:
+        """(electrostatic energy N mm, current film area mm^2) at positions x (n, 3); (0, 0)
+        without a dielectric."""
+        if self._dielectric is None:
+            return 0.0, 0.0
+        return diel_element.energies(x, *self._dielectric, self.dielectric_coefficient)
+
     def add_rod(self, chain: Sequence[int], *, EA: float, EI: float, EI_strong: float | None = None,
                 GJ: float | None = None, bond: Sequence[int] | None = None, closed: bool = False) -> None:
         """Add the discrete rod with bond points (:mod:`dr.rod`, the FEM reference's frame).
@@ -532,6 +562,8 @@ class Model:
         cl_nodes = np.concatenate([c[0] for c in self._clusters]) if self._clusters else np.zeros(0, np.int64)
         cl_seg = np.concatenate([np.stack([c[0][:-1], c[0][1:]], axis=1) for c in self._clusters]) if self._clusters else np.zeros((0, 2), np.int64)
         tri_idx, tri_grad, tri_par = self._pack_triangles()
+        # at zero voltage the term is left out: V = 0 is the mechanical model bit for bit
+        diel_on = self._dielectric is not None and self.dielectric_coefficient > 0.0
         rod_idx, rod_par = self._pack_rods()
         cl_seg_cluster = np.repeat(np.arange(len(self._clusters)), [c[0].size - 1 for c in self._clusters])
         P = Packed(
@@ -570,6 +602,9 @@ class Model:
             rod_idx=rod_idx,
             rod_par=rod_par,
             rod_blocks=np.zeros((rod_idx.shape[0], rod_element.ROWS, 6)),
+            diel_idx=self._dielectric[0] if diel_on else np.zeros((0, 3), np.int64),
+            diel_par=(np.column_stack([self._dielectric[1], np.full(len(self._dielectric[1]),
+                      self.dielectric_coefficient)]) if diel_on else np.zeros((0, 2))),
         )
         # rest curvatures, lengths and strip rest measures from the reference geometry, with the
         # clamp ghosts mirrored about the clamps' rest tangents

@@ -17,8 +17,10 @@ from skfem import BilinearForm
 from skfem.helpers import dot as fdot
 
 from scenes import Scene
+from scenes.electric import dielectric_coefficient
 
 from .frame import Rod, RodProperties, StencilTerms, scatter
+from .dielectric import Dielectric
 from .membrane import Membrane
 from .mesh import MembraneMesh, build_mesh
 from .rod_kernels import Jets
@@ -59,6 +61,8 @@ class DemesProblem:
         self.mesh: MembraneMesh = build_mesh(scene, refinement, element)
         mem = scene.membrane
         self.membrane = Membrane(self.mesh.basis, mem.law, mem.E, mem.thickness, mem.tension_only)
+        # at scene.loading.voltage; set .coefficient (dielectric_coefficient) to change it
+        self.dielectric = Dielectric(self.mesh.basis, dielectric_coefficient(scene))
         self.X = self.membrane.X
         nn = self.X.shape[0]
         self.n_dofs = 3 * nn
@@ -119,13 +123,18 @@ class DemesProblem:
         x = y.reshape(-1, 3)
         xm, _, _ = self._film_positions(x, order=0)
         rod = self.rod.evaluate(x, order=0)[0]
-        return self.membrane.energy(xm, self.lam) + sum(rod.values())
+        return self.membrane.energy(xm, self.lam) + self.dielectric.energy(xm) + sum(rod.values())
 
     def evaluate(self, y: np.ndarray, order: int = 2) -> Evaluation:
         """Energy parts, gradient and (order 2) tangent at positions y (3 nn,)."""
         x = y.reshape(-1, 3)
         xm, n, ids = self._film_positions(x)
         e_m, g_m, K_m = self.membrane.evaluate(xm, self.lam, order)
+        e_d = 0.0
+        if self.dielectric.coefficient != 0.0:
+            e_d, g_d, K_d = self.dielectric.evaluate(xm, order)
+            g_m = g_m + g_d
+            K_m = K_m + K_d if order >= 2 else None
         rod_e, g_f, K_f = self.rod.evaluate(x, order)
         g, K = g_m.copy(), K_m
         if n is not None:
@@ -142,6 +151,7 @@ class DemesProblem:
             "frame_bending": rod_e["bending"],
             "frame_torsion": rod_e["torsion"],
             "frame_axial": rod_e["axial"],
+            "electrostatic": e_d,
         }
         fm = np.linalg.norm(g_m.reshape(-1, 3), axis=1).max()
         return Evaluation(sum(parts.values()), parts, g, K if order >= 2 else None,

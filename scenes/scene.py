@@ -94,6 +94,16 @@ def prestretch_value(name: str, value: Any) -> float:
     return v
 
 
+def permittivity_value(name: str, value: Any) -> float:
+    v = _number(name, value)
+    if v < 1.0:
+        raise SceneError(
+            f"{name} = {v:g} is below 1: the relative permittivity of any dielectric is at least 1 "
+            "(vacuum); VHB acrylic film is about 4.65"
+        )
+    return v
+
+
 def prestretch_list(name: str, value: Any) -> tuple[float, ...]:
     if not isinstance(value, (list, tuple)) or not 0 < len(value) <= MAX_SWEEP:
         raise SceneError(f"{name} must be a list of 1 to {MAX_SWEEP} pre-stretch ratios, e.g. [1.1, 1.3, 1.5]")
@@ -317,6 +327,15 @@ class MembraneSpec(_Section):
         "'linear': Hookean in the engineering strain from the rest state (the DR link law)",
     )
     tension_only: bool = spec(True, boolean, "", "slack membrane carries no compression")
+    permittivity: float = spec(
+        4.65, permittivity_value, "", "relative permittivity eps_r of the film (>= 1; VHB 4.65)"
+    )
+    unstretched_thickness: float | None = spec(
+        None,
+        optional(positive),
+        "mm",
+        "film thickness H before pre-stretch, for the electric field; default thickness * prestretch^2",
+    )
 
 
 @dataclass(frozen=True)
@@ -331,6 +350,7 @@ class LoadingSpec(_Section):
         "",
         "pre-stretch ratios of a sweep",
     )
+    voltage: float = spec(0.0, non_negative, "V", "voltage across the film's electrodes")
 
 
 @dataclass(frozen=True)

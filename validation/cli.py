@@ -1,4 +1,5 @@
-"""The ``demes`` command line: solve (DR), fem (reference), sweep (design grid), bench, validate."""
+"""The ``demes`` command line: solve (DR), fem (reference), actuate, calibrate, sweep (design grid), bench,
+validate."""
 
 from __future__ import annotations
 
@@ -119,6 +120,54 @@ def cmd_fem(args: argparse.Namespace) -> int:
     return _run_solver(args, "fem")
 
 
+def cmd_actuate(args: argparse.Namespace) -> int:
+    from . import actuate
+    from .actuation_figures import energy_stroke, stroke_voltage
+
+    scene = load_scene(args)
+    if args.prestretch:
+        scene = scene.updated(prestretch=_prestretches(args, scene)[-1])
+    volts = actuate.parse_voltages(args.voltage)
+    out = Path(args.out)
+    solvers = ("fem", "dr") if args.solver == "both" else (args.solver,)
+    runs, texts = {}, []
+    for solver in solvers:
+        rows = actuate.run_actuation(scene, volts, solver, out, args.refinement, not args.no_progress)
+        runs[solver] = rows
+        title = (f"{scene.name}: {solver.upper()} voltage sweep, frame model '{scene.frame.model}', "
+                 f"pre-stretch {scene.prestretch:g}")
+        block = [actuate.table(rows, title),
+                 actuate.describe(actuate.characteristics(rows), solver, volts.values[-1])]
+        block += [f"  {r['status']}: {r['message']}" for r in rows if not r["converged"]]
+        print("\n".join(block), flush=True)
+        texts += block
+    notes = [actuate.compare(runs["dr"], runs["fem"])] if len(runs) == 2 else []
+    print("\n".join(notes))
+    texts += notes
+    figures = [stroke_voltage(runs, out / "stroke_voltage.png"), energy_stroke(runs, out / "energy_stroke.png")]
+    actuate.write_summary(out, "\n".join(["# Against the experiment (docs/actuation.md)", *texts]))
+    actuate.write_report(out, scene, runs, figures, notes)
+    print(f"wrote {out}: report.md, index.html, CSV, .pvd series (time = volts), figures")
+    return 0 if all(r[-1]["converged"] for r in runs.values()) else 2
+
+
+def cmd_calibrate(args: argparse.Namespace) -> int:
+    from . import calibrate
+
+    scene = load_scene(args)
+    if args.prestretch:
+        scene = scene.updated(prestretch=_prestretches(args, scene)[-1])
+    cal = calibrate.calibrate(scene, args.refinement or 0)
+    text = calibrate.describe(cal)
+    print(text)
+    out = Path(args.out)
+    atomic_write_text(out / "calibration.txt", text + "\n")
+    atomic_write_text(out / "calibration.json", json.dumps(
+        {"membrane_E": cal.membrane_E, "frame_E": cal.frame_E, "sensitivities": cal.sensitivities,
+         "residuals": cal.residuals, "implications": cal.implications, "tried": cal.tried}, indent=1))
+    return 0
+
+
 def cmd_validate(args: argparse.Namespace) -> int:
     from .validate import validate
 
@@ -181,6 +230,16 @@ def build_parser() -> argparse.ArgumentParser:
     _common(p, "out/fem")
     p.add_argument("--refinement", type=int, help="halve the element size this many times")
     p.set_defaults(func=cmd_fem)
+    p = sub.add_parser("actuate", help="sweep the voltage from the pre-stretched equilibrium: stroke, energies, flat / pull-in")
+    _common(p, "out/actuate")
+    p.add_argument("--voltage", default="0:3000:100", help="start:stop:step or a list a,b,c in volts (default 0:3000:100)")
+    p.add_argument("--solver", choices=("dr", "fem", "both"), default="fem", help="which solver (both: agreement reported)")
+    p.add_argument("--refinement", type=int, help="FEM: halve the element size this many times")
+    p.set_defaults(func=cmd_actuate)
+    p = sub.add_parser("calibrate", help="fit the film and frame moduli to the experiment (flat at 2.25 kV, the 0 V shape kept)")
+    _common(p, "out/calibrate")
+    p.add_argument("--refinement", type=int, help="FEM: halve the element size this many times")
+    p.set_defaults(func=cmd_calibrate)
     p = sub.add_parser("validate", help="DR against the FEM reference: shapes, energies, speed, hard cases; writes a report")
     p.add_argument("scene", nargs="?", default="demes_paper", help="scene .toml or built-in name (default: demes_paper)")
     p.add_argument("--out", help="report folder (default: reports/<scene>[_quick])")

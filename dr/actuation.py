@@ -1,0 +1,109 @@
+"""Voltage sweep of a DEMES by dynamic relaxation, warm-started from its pre-stretched state.
+
+The pre-stretched equilibrium at 0 V comes from :func:`dr.solve` (the quasi-static pre-stretch
+path). The voltage is then raised along the requested list, each state relaxed from the one
+before. A relaxation that fails (no convergence, divergence, a fold) is retried from the last
+good state with the voltage step halved, ``BISECTIONS`` times; if it still fails, the path stops
+with the voltages that bracket the failure: status ``pull_in`` (an electromechanical instability)
+when no equilibrium was found there, or the relaxation's own status for a fold or a contact. The sweep also stops once the frame is flat (bending angle below ``FLAT_DEG``).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from typing import Iterator, Sequence
+
+import numpy as np
+
+from results import Result
+from scenes import Scene
+from scenes.electric import (FLAT_DEG, check_voltages, dielectric_coefficient, mounted_thickness,
+                             path_end)
+
+from .demes import build, check_voltage_net, solve
+from .relax import relax
+
+BISECTIONS = 4
+"""Halvings of a failed voltage step before the path counts as ended (pull-in)."""
+
+
+def voltage_sweep(scene: Scene, voltages: Sequence[float], progress: bool = False
+                  ) -> Iterator[Result]:
+    """States of the pre-stretched DEMES at increasing voltages (V), one warm-started path.
+
+    Yields one :class:`Result` per voltage until the frame is flat (that state is yielded with
+    ``info['flat'] = True``) or the path stops (pull-in, contact, no convergence; the last good
+    state is yielded with that status, and nothing after it). ``info`` holds ``voltage_V``,
+    ``capacitor_energy`` and ``electrostatic_energy`` (N mm), ``film_area_mm2`` and
+    ``film_thickness_mm`` (mean current thickness).
+    """
+    volts = check_voltages(voltages)
+    check_voltage_net(scene, volts[-1])
+    scene = scene.updated(**{"loading.voltage": 0.0})
+    state = solve(scene, progress=progress)
+    dm = build(scene)
+    model, st = dm.model, scene.dr
+    flat_area = model.dielectric_energy(dm.model.nodes)[1]
+    force_scale = 0.01 * scene.membrane.E * dm.cable_area
+    v_now, stop = 0.0, None if state.converged else (state.status, state.message)
+
+    def relax_at(v: float, x: np.ndarray) -> Result:
+        model.dielectric_coefficient = dielectric_coefficient(scene, v)
+        return relax(model, tol=st.tolerance, mass_safety=st.mass_safety,
+                     max_iterations=st.max_iterations, x_start=x, contact=dm.contact,
+                     final_checks=dm.final_checks, force_scale=force_scale)
+
+    for v in volts:
+        iterations, wall = 0, 0.0
+        while stop is None and v_now < v:
+            trial, bad = v, None
+            for _ in range(BISECTIONS + 1):
+                res = relax_at(trial, state.x)
+                iterations, wall = iterations + res.iterations, wall + res.wall_time
+                if res.converged:
+                    break
+                bad, trial = (trial, res), 0.5 * (v_now + trial)
+            if res.converged:
+                state, v_now = res, trial
+                continue
+            stop = _stop(bad[1], v_now, bad[0])
+        out = _finish(state, scene.updated(**{"loading.voltage": v_now}), dm, v_now, flat_area)
+        out.iterations, out.wall_time = iterations, wall
+        out.info["requested_voltage_V"] = v
+        if stop is not None:
+            out.status, out.converged, out.message = path_end(out.bending_angle, v_now, v, *stop)
+            out.info["flat"] = out.status == "flat"
+            yield out
+            return
+        out.info["flat"] = abs(out.bending_angle) < FLAT_DEG
+        yield out
+        if out.info["flat"]:
+            return
+
+
+GEOMETRIC_STOPS = ("membrane_fold", "self_contact")
+"""Relaxation stops that are a geometric event, not a loss of equilibrium."""
+
+
+def _stop(failed: Result, v_good: float, v_bad: float) -> tuple[str, str]:
+    """(status, detail) of a path that cannot pass ``v_bad``: a fold or a contact keeps its own
+    status; a relaxation that found no equilibrium there is a pull-in."""
+    where = f"between V = {v_good:.1f} V and {v_bad:.1f} V"
+    if failed.status in GEOMETRIC_STOPS:
+        detail = f"{failed.status} {where}: {failed.message}"
+        return failed.status, detail
+    return "pull_in", (f"electromechanical instability (pull-in) {where}: no equilibrium found "
+                       f"there ({failed.status}: {failed.message})")
+
+
+def _finish(res: Result, scene: Scene, dm, voltage: float, flat_area: float) -> Result:
+    """A copy of the state with its scene, frame and actuation measures."""
+    res = dataclasses.replace(res, info=dict(res.info))
+    res.scene, res.prestretch = scene, scene.prestretch
+    res.frame_nodes, res.frame_s = dm.frame_nodes, dm.frame_s
+    dm.model.dielectric_coefficient = dielectric_coefficient(scene, voltage)
+    e_el, area = dm.model.dielectric_energy(res.x)
+    res.info.update(voltage_V=voltage, capacitor_energy=-e_el + 0.0, electrostatic_energy=e_el,
+                    film_area_mm2=area, film_thickness_mm=mounted_thickness(scene) * flat_area / area)
+    res.message = f"V = {voltage:g} V: {res.message}"
+    return res

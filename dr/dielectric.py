@@ -1,0 +1,120 @@
+"""DR element: the ideal dielectric film's electrostatic energy over flat-reference triangles.
+
+At a fixed voltage a triangle of flat (mounted) area A and current area a has the energy
+-c a^2 / A (N mm), c = eps0 eps_r V^2 / (2 h_m) (:func:`scenes.electric.dielectric_coefficient`):
+the integral of -eps V^2 / (2 h) over its current area with h = h_m A / a (incompressible). With
+n = (x1 - x0) x (x2 - x0), a^2 = |n|^2 / 4, so the energy is a quartic polynomial in the
+positions and its gradient is exact: d|n|^2/dx1 = 2 e2 x n, d|n|^2/dx2 = 2 n x e1 (e1 = x1 - x0,
+e2 = x2 - x0), d/dx0 = minus their sum. The same triangle in the FEM (P1) has the same energy.
+
+Stiffness bound for the masses: the Gershgorin row sums of the exact 9x9 Hessian. The term
+softens the film (its Hessian is mostly negative); the time step's stability needs the size of
+the stiffness, not its sign, so the absolute row sums bound it.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from .blocks import gershgorin
+from .vec import add_to, cross, dot, get, sub
+
+AREA, COEFF = range(2)
+"""Columns of Packed.diel_par: flat area (mm^2) and c (N/mm)."""
+
+
+@njit(cache=True, error_model="numpy")
+def dielectric_local(xl, par, gl, want_grad):
+    """Energy (N mm) of one triangle from its rows xl (3, 3); with ``want_grad`` its gradient
+    is added to gl (3, 3)."""
+    e1 = sub(get(xl, 1), get(xl, 0))
+    e2 = sub(get(xl, 2), get(xl, 0))
+    n = cross(e1, e2)
+    k = par[COEFF] / (4.0 * par[AREA])
+    if want_grad:
+        g1 = cross(e2, n)
+        g2 = cross(n, e1)
+        add_to(gl, 1, g1, -2.0 * k)
+        add_to(gl, 2, g2, -2.0 * k)
+        add_to(gl, 0, g1, 2.0 * k)
+        add_to(gl, 0, g2, 2.0 * k)
+    return -k * dot(n, n)
+
+
+@njit(cache=True, error_model="numpy")
+def dielectric_hessian(xl, par, H):
+    """The exact Hessian H (9, 9) of one triangle's energy (N/mm)."""
+    e1 = sub(get(xl, 1), get(xl, 0))
+    e2 = sub(get(xl, 2), get(xl, 0))
+    g11, g22, g12 = dot(e1, e1), dot(e2, e2), dot(e1, e2)
+    k = -par[COEFF] / (4.0 * par[AREA])
+    # |n|^2 = g11 g22 - g12^2: its Hessian in (e1, e2), then mapped to the nodes
+    He = np.zeros((6, 6))
+    for i in range(3):
+        He[i, i] += 2.0 * g22
+        He[3 + i, 3 + i] += 2.0 * g11
+        He[i, 3 + i] -= 2.0 * g12
+        He[3 + i, i] -= 2.0 * g12
+        for j in range(3):
+            He[i, j] -= 2.0 * e2[i] * e2[j]
+            He[3 + i, 3 + j] -= 2.0 * e1[i] * e1[j]
+            He[i, 3 + j] += 4.0 * e1[i] * e2[j] - 2.0 * e2[i] * e1[j]
+            He[3 + j, i] += 4.0 * e1[i] * e2[j] - 2.0 * e2[i] * e1[j]
+    T = np.zeros((6, 9))  # (e1, e2) = T (x0, x1, x2)
+    for i in range(3):
+        T[i, i], T[i, 3 + i] = -1.0, 1.0
+        T[3 + i, i], T[3 + i, 6 + i] = -1.0, 1.0
+    H[:, :] = k * (T.T @ He @ T)
+
+
+@njit(cache=True, error_model="numpy")
+def dielectric_gradient(X, idx, par, G, xl, gl):
+    """Add one triangle's energy gradient to G (N); xl, gl (3, 3) scratch. Returns the largest
+    nodal force, N."""
+    for a in range(3):
+        for i in range(3):
+            xl[a, i] = X[idx[a], i]
+    gl[:] = 0.0
+    dielectric_local(xl, par, gl, True)
+    fmax = 0.0
+    for a in range(3):
+        add_to(G, idx[a], get(gl, a), 1.0)
+        fmax = max(fmax, np.sqrt(gl[a, 0] ** 2 + gl[a, 1] ** 2 + gl[a, 2] ** 2))
+    return fmax
+
+
+@njit(cache=True, error_model="numpy")
+def gradient(X, P, G, D):
+    """Add the dielectric's gradient of every film triangle to G; returns its largest force (N)."""
+    xt = np.zeros((3, 3))
+    gt = np.zeros((3, 3))
+    fmax = 0.0
+    for k in range(P.diel_idx.shape[0]):
+        fmax = max(fmax, dielectric_gradient(X, P.diel_idx[k], P.diel_par[k], G, xt, gt))
+    return fmax
+
+
+@njit(cache=True, error_model="numpy")
+def stiffness(X, P, S, with_links):
+    """Add the Gershgorin bound of each triangle's dielectric Hessian (it softens the film: its
+    size, not its sign, bounds the time step) to S."""
+    xt = np.zeros((3, 3))
+    H = np.zeros((9, 9))
+    for k in range(P.diel_idx.shape[0]):
+        idx = P.diel_idx[k]
+        for a in range(3):
+            for c in range(3):
+                xt[a, c] = X[idx[a], c]
+        dielectric_hessian(xt, P.diel_par[k], H)
+        gershgorin(H, idx, S)
+
+
+
+def energies(x: np.ndarray, triangles: np.ndarray, flat_area: np.ndarray, coefficient: float
+             ) -> tuple[float, float]:
+    """(electrostatic energy -sum c a^2 / A, current area sum a) of triangles at positions x
+    (n, 3): N mm and mm^2."""
+    p = x[triangles]
+    a = 0.5 * np.linalg.norm(np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]), axis=1)
+    return float(-coefficient * np.sum(a * a / flat_area)), float(a.sum())
