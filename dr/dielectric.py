@@ -96,6 +96,21 @@ def gradient(X, P, G, D):
 
 
 @njit(cache=True, error_model="numpy")
+def energy(X, P):
+    """The dielectric's energy -(eps0 eps_r V^2 / 2) integral of 1/h da over every film triangle, N mm."""
+    xt = np.zeros((3, 3))
+    gt = np.zeros((3, 3))
+    total = 0.0
+    for k in range(P.diel_idx.shape[0]):
+        idx = P.diel_idx[k]
+        for a in range(3):
+            for c in range(3):
+                xt[a, c] = X[idx[a], c]
+        total += dielectric_local(xt, P.diel_par[k], gt, False)
+    return total
+
+
+@njit(cache=True, error_model="numpy")
 def stiffness(X, P, S, with_links):
     """Add the Gershgorin bound of each triangle's dielectric Hessian (it softens the film: its
     size, not its sign, bounds the time step) to S."""

@@ -10,6 +10,7 @@ from tqdm import tqdm
 
 from results import CellBlock, Result
 
+from . import dielectric
 from . import integrator as itg
 from .contact import FrameContact
 from .errors import DRError
@@ -259,8 +260,9 @@ def relax(
 
 
 def _potential_energy(X: np.ndarray, P: Packed, loads: np.ndarray) -> float:
-    """Strain energy less the loads' work from the origin, N mm."""
-    return float(sum(energy(X, P))) - float(np.sum(loads * X[: P.n]))
+    """Strain energy plus the dielectric's (electrical) part, less the loads' work from the
+    origin, N mm: the energy the time loop minimises."""
+    return float(sum(energy(X, P))) + float(dielectric.energy(X, P)) - float(np.sum(loads * X[: P.n]))
 
 
 def _update_masses(X, P, G, S, D, loads, free, R, safety, M, Minv, tensor) -> None:

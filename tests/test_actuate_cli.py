@@ -60,7 +60,7 @@ def test_voltage_labels_exact_on_the_grid():
                                           ("1000,500", "increase"), ("0:1e9:0.001", "at most")])
 def test_bad_voltage_ranges(text, words, tmp_path, capsys):
     code = main(["actuate", f"--voltage={text}", "--out", str(tmp_path), "--no-progress"])
-    assert code == 1
+    assert code == 2
     err = capsys.readouterr().err
     assert words in err and "Traceback" not in err
 
@@ -68,6 +68,6 @@ def test_bad_voltage_ranges(text, words, tmp_path, capsys):
 def test_a_voltage_on_the_clustered_net_is_refused(tmp_path, capsys):
     code = main(["actuate", "--solver", "dr", "--set", "mesh.divisions=6", "--voltage", "0:1000:500",
                  "--out", str(tmp_path), "--no-progress"])
-    assert code == 1
+    assert code == 2
     err = capsys.readouterr().err
     assert "dr.membrane_net" in err and "Traceback" not in err
