@@ -1,4 +1,5 @@
-"""DR model of a DEMES scene, as the paper built it: ``solve`` one state, ``sweep`` pre-stretch."""
+"""DR model of a DEMES scene: the paper's net (links or clustered cables) or membrane triangles on
+the FEM's mesh (``dr.membrane_net = "triangles"``); ``solve`` one state, ``sweep`` pre-stretch."""
 
 from __future__ import annotations
 
@@ -10,6 +11,7 @@ from scipy.spatial import cKDTree
 
 from results import Result
 from scenes import Scene, SceneError
+from scenes.mesh import membrane_mesh
 from scenes.scene import prestretch_value
 
 from .contact import FilmCrossing, FrameContact, MembraneFold
@@ -29,12 +31,15 @@ class DemesModel:
     """A scene's DR model and what the result needs to know about it."""
 
     model: Model
-    net: Net
+    net: Net | None  # the paper's lattice (None for triangles)
     start: np.ndarray  # (n, 3) initial positions with the symmetry-breaking lift, mm
     contact: FrameContact | None
     final_checks: list
     mirror: np.ndarray | None  # node index of each node's mirror image (x -> -x), if symmetric
-    cable_area: float  # mm^2
+    cable_area: float  # mm^2, of a cable at the net's spacing (the force scale)
+    frame_nodes: np.ndarray  # frame node ids along the outline from the base midpoint
+    frame_s: np.ndarray  # their arc lengths, mm
+    spacing: float  # mm
     film_node: np.ndarray  # (n,) the net node each model node stands for (a cable's attachment: its frame node)
 
 
@@ -50,10 +55,12 @@ def cable_area(scene: Scene, spacing: float) -> float:
 def build(scene: Scene, prestretch: float | None = None) -> DemesModel:
     """Build the DR model of ``scene`` at ``prestretch`` (default: the scene's)."""
     lam = scene.prestretch if prestretch is None else prestretch_value("pre-stretch", prestretch)
+    if scene.dr.membrane_net == "triangles":
+        return _build_triangles(scene, lam)
     if scene.membrane.law != "linear":
         raise SceneError(
             f"membrane.law = {scene.membrane.law!r}: the DR net models the 'linear' (Hookean cable) "
-            "law only; use the FEM reference for 'neo-hookean'"
+            "law only; use dr.membrane_net = 'triangles' or the FEM reference for 'neo-hookean'"
         )
     outline = scene.outline
     s_right, s_left = scene.base_region()
@@ -83,25 +90,29 @@ def build(scene: Scene, prestretch: float | None = None) -> DemesModel:
     if extra:
         m.support(np.arange(net.nodes.shape[0], nodes.shape[0]))
 
-    # frame: the free part between the clamps ('taped'), or the whole loop ('pinned')
-    inner = net.edge_inner_nodes()
+    # frame: the free part between the clamps ('taped'), or the whole loop ('pinned'); an
+    # edge's strip plane passes through its bond point, the film point frame.bond_lever inside
+    strip = frame.model == "strip"
+    oriented = strip or d != 0.0
+    if oriented:
+        corners, weights = net.bond_points(outline, frame.lever)
+        bonds = np.array([m.bond_point(c, w) for c, w in zip(corners, weights)])
     if clamps:
         r, l = net.frame_node_at(clamps[0][0]), net.frame_node_at(clamps[1][0])
         chain = np.arange(r, l + 1)
-        orientation = inner[r:l]
+        orientation = bonds[r:l] if oriented else None
         for (s_c, tangent), node in zip(clamps, (r, l)):
             m.clamp(node, tangent, taped=True)
         closed = False
     else:
-        chain, orientation, closed = np.arange(nf), inner, True
-    strip = frame.model == "strip"
+        chain, orientation, closed = np.arange(nf), bonds if oriented else None, True
     m.add_beam(
         chain,
         EI=frame.EI,
         EA=frame.EA,
         EI_strong=frame.EI_strong if strip else None,
         GJ=frame.GJ if strip else None,
-        orientation=orientation if (strip or d != 0.0) else None,
+        orientation=orientation,
         closed=closed,
     )
     if d != 0.0:
@@ -110,22 +121,14 @@ def build(scene: Scene, prestretch: float | None = None) -> DemesModel:
 
     # membrane: lattice lines as clustered cables (the paper) or one link per segment
     area = cable_area(scene, net.spacing)
-    EA = scene.membrane.E * area
     tension_only = scene.membrane.tension_only
-    if strip or d != 0.0:
-        # the film is bonded across the strip's width: the membrane node that sets an edge's
-        # strip plane moves with the strip's cross-section (in a clustered net it could slide
-        # onto the edge's line, where the plane is undefined, and a soft tie lets it be
-        # dragged there). Stress-free ties as stiff as the strip hold it in place and leave
-        # it free to turn with the strip.
-        edges = np.stack([chain[:-1], chain[1:]], axis=1) if not closed else np.stack([chain, np.roll(chain, -1)], axis=1)
-        tied = orientation >= nf
-        ends = edges[tied].ravel()
-        m.add_link(ends, np.repeat(orientation[tied], 2), frame.EA, role="frame")
-    for cable in net.cables:
+    for cable, film in zip(net.cables, net.cable_film):
         c = cable.copy()
         c[0], c[-1] = attach[c[0]], attach[c[-1]]
         flat = np.linalg.norm(np.diff(net.nodes[cable], axis=0), axis=1)
+        # the cable carries the film it stands for: E h (film area) / (cable length), which is
+        # E A inside the lattice and makes up for the lattice's margin at the frame
+        EA = scene.membrane.E * scene.membrane.thickness * film / flat.sum()
         if scene.dr.membrane_net == "clustered":
             m.add_cluster(c, EA, rest_length=flat.sum() / lam, tension_only=tension_only)
         else:
@@ -139,7 +142,8 @@ def build(scene: Scene, prestretch: float | None = None) -> DemesModel:
         final_checks = [MembraneFold(net.triangles, net.nodes), FilmCrossing(net.triangles, np.arange(nf))]
     film_node = np.arange(nodes.shape[0])
     film_node[net.nodes.shape[0]:] = np.flatnonzero(held)[: len(extra)]
-    return DemesModel(m, net, start, contact, final_checks, _mirror_map(nodes), area, film_node)
+    return DemesModel(m, net, start, contact, final_checks, _mirror_map(nodes), area,
+                      np.arange(nf), net.frame_s, net.spacing, film_node)
 
 
 def paper_formula_membrane_energy(model: Model, x: np.ndarray) -> float:
@@ -192,6 +196,39 @@ def slack_fractions(dm: DemesModel, res: Result) -> tuple[float, float]:
     return float(area[some].sum() / area.sum()), float(area[full].sum() / area.sum())
 
 
+def _build_triangles(scene: Scene, lam: float) -> DemesModel:
+    """Constant-strain triangles on the scene's mesh at ``fem.refinement`` with the frame rod
+    of bond points: the FEM reference's discrete problem (docs/discrete-problem.md)."""
+    frame = scene.frame
+    if frame.film_offset:
+        raise SceneError("frame.film_offset = true is not modelled with dr.membrane_net = 'triangles'; "
+                         "set frame.film_offset = false or use the 'links' net")
+    mesh = membrane_mesh(scene, scene.fem.refinement)
+    nodes = np.column_stack([mesh.nodes, np.zeros(len(mesh.nodes))])
+    m = Model(nodes)
+    m.triangles = mesh.triangles
+    s_right, s_left = scene.base_region()
+    tol = 1e-9 * scene.outline.length
+    held = (mesh.frame_s <= s_right + tol) | (mesh.frame_s >= s_left - tol)
+    m.support(mesh.frame_nodes[held])
+    mem = scene.membrane
+    m.add_triangles(mesh.triangles, E=mem.E, thickness=mem.thickness, prestretch=lam, law=mem.law,
+                    tension_only=mem.tension_only)
+    strip = frame.model == "strip"
+    m.add_rod(mesh.frame_nodes, EA=frame.EA, EI=frame.EI, closed=True,
+              EI_strong=frame.EI_strong if strip else None, GJ=frame.GJ if strip else None,
+              bond=mesh.bond_nodes if strip else None)
+    start = nodes.copy()
+    start[:, 2] += np.where(m.fixed[:, 2], 0.0, scene.initial_lift(nodes[:, :2]))
+    contact, final_checks = None, []
+    if scene.dr.check_contact:
+        contact = FrameContact(mesh.frame_nodes, frame.thickness)
+        final_checks = [MembraneFold(mesh.triangles, nodes), FilmCrossing(mesh.triangles, mesh.frame_nodes)]
+    return DemesModel(m, None, start, contact, final_checks, _mirror_map(nodes),
+                      cable_area(scene, mesh.spacing), mesh.frame_nodes, mesh.frame_s, mesh.spacing,
+                      np.arange(len(nodes)))
+
+
 def _mirror_map(nodes: np.ndarray) -> np.ndarray | None:
     """Index of each node's mirror image across x = 0, or None if the model is not symmetric."""
     dist, idx = cKDTree(nodes).query(nodes * [-1.0, 1.0, 1.0])
@@ -242,7 +279,7 @@ def solve(scene: Scene, prestretch: float | None = None, x_start: np.ndarray | N
         last = k == len(path) - 1
         # near the flat state (unstable, but an equilibrium) a loose tolerance accepts it
         # before the unstable mode has grown, and the path later snaps onto any branch
-        near_flat = np.abs(x_start[: dm.net.n_frame, 2]).max() < FLAT_FRACTION * scene.outline.side_length
+        near_flat = np.abs(x_start[dm.frame_nodes, 2]).max() < FLAT_FRACTION * scene.outline.side_length
         res = relax(
             dm.model, tol=st.tolerance if (last or near_flat) else max(st.step_tolerance, st.tolerance),
             mass_safety=st.mass_safety, max_iterations=st.max_iterations, x_start=x_start,
@@ -260,8 +297,8 @@ def solve(scene: Scene, prestretch: float | None = None, x_start: np.ndarray | N
     # a path that stopped on the way is reported where it stopped, not where it was headed
     res.scene = scene if current == scene.prestretch else scene.updated(prestretch=current)
     res.prestretch = current
-    res.frame_nodes = np.arange(dm.net.n_frame)
-    res.frame_s = dm.net.frame_s
+    res.frame_nodes = dm.frame_nodes
+    res.frame_s = dm.frame_s
     res.message = f"lambda = {current:.3f}: {res.message}"
     if len(path) > 1:
         res.message += f" (step {path.index(current) + 1} of {len(path)} pre-stretch steps; {iterations} iterations in all)"
@@ -269,9 +306,10 @@ def solve(scene: Scene, prestretch: float | None = None, x_start: np.ndarray | N
         res.message += f"; the requested lambda = {lam:.3f} was not reached"
     res.info.update(
         n_nodes=dm.model.n,
-        n_frame_nodes=dm.net.n_frame,
-        n_cables=len(dm.net.cables),
-        spacing_mm=dm.net.spacing,
+        n_frame_nodes=dm.frame_nodes.size,
+        n_cables=len(dm.net.cables) if dm.net is not None else 0,
+        n_triangles=int(dm.model.triangles.shape[0]) if dm.net is None else 0,
+        spacing_mm=dm.spacing,
         cable_area_mm2=dm.cable_area,
         membrane_net=st.membrane_net,
         frame_model=scene.frame.model,

@@ -6,7 +6,11 @@ are positions derived from real ones:
 - ghosts (moving clamp ghosts): the mirror image of a beam's second node across the plane
   through the clamped node normal to the clamped tangent (second-order clamp, DESIGN.md);
 - offsets: a frame node moved by a signed distance along the strip normal, where the film is
-  bonded on one face of the strip (the membrane then acts t/2 off the centreline).
+  bonded on one face of the strip (the membrane then acts t/2 off the centreline);
+- bond points: a fixed convex combination of three real nodes (a film point inside a membrane
+  triangle), which sets a strip edge's plane at the bond lever whatever the mesh.
+
+Rows of X: real nodes (n), bond points, offsets, ghosts.
 
 Kernels accumulate the energy gradient G = dE/dX; the residual is R = loads - G after the
 virtual-node gradients are pulled back onto the real nodes (chain rule), so every node that a
@@ -25,6 +29,8 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
+from . import rod as rod_element
+from .triangles import triangle_gradient, triangle_local, triangle_stiffness
 from .vec import add, add_to, axpy, cross, dot, get, norm, scale, sub, unit_vjp
 
 Z_AXIS = (0.0, 0.0, 1.0)
@@ -38,6 +44,8 @@ class Packed(NamedTuple):
     """Element arrays of a model, as the kernels take them (see :class:`dr.Model`)."""
 
     n: int  # real nodes
+    bond_nodes: np.ndarray  # (b, 3) the real nodes a bond point is made from
+    bond_w: np.ndarray  # (b, 3) their weights (>= 0, sum 1)
     ghost_src: np.ndarray  # (g,) node mirrored
     ghost_clamp: np.ndarray  # (g,) clamped node
     ghost_t: np.ndarray  # (g, 3) unit clamped tangent
@@ -64,6 +72,17 @@ class Packed(NamedTuple):
     strip_idx: np.ndarray  # (k, 5) frame geometry of strip nodes
     strip_par: np.ndarray  # (k, 9) KB, KT, EIW, EIS, GJ, KW0, KN0, TAU0, LBAR
     strip_blocks: np.ndarray  # (k, 5, 6) scratch: mass blocks in the material frame
+    tri_idx: np.ndarray  # (t, 3) membrane triangles
+    tri_grad: np.ndarray  # (t, 3, 2) flat shape-function gradients, 1/mm
+    tri_par: np.ndarray  # (t, 5) see dr.triangles (area, E h, lambda, tension-only, law)
+    rod_idx: np.ndarray  # (r, 7) rod vertex stencils, see dr.rod
+    rod_par: np.ndarray  # (r, dr.rod.N_PAR)
+    rod_blocks: np.ndarray  # (r, 7, 6) scratch: mass blocks in the vertex's material frame
+
+    @property
+    def n_total(self) -> int:
+        """Rows of the extended position array: real nodes, bond points, offsets, ghosts."""
+        return self.n + self.bond_nodes.shape[0] + self.off_geo.shape[0] + self.ghost_src.shape[0]
 
 
 # ----------------------------------------------------------------------------- frame geometry
@@ -231,8 +250,13 @@ def strip_measures(X, idx_all):
 
 @njit(cache=True, error_model="numpy")
 def place_virtual(X, P):
-    """Positions of the virtual nodes from the real ones: offsets (rows n...), then ghosts."""
-    n = P.n
+    """Positions of the virtual nodes from the real ones: bond points (rows n...), ghosts,
+    then offsets (after the bond points that may set their normals)."""
+    for k in range(P.bond_nodes.shape[0]):
+        for c in range(3):
+            X[P.n + k, c] = (P.bond_w[k, 0] * X[P.bond_nodes[k, 0], c] + P.bond_w[k, 1] * X[P.bond_nodes[k, 1], c]
+                             + P.bond_w[k, 2] * X[P.bond_nodes[k, 2], c])
+    n = P.n + P.bond_nodes.shape[0]  # first offset row
     base = n + P.off_geo.shape[0]
     for k in range(P.ghost_src.shape[0]):
         xs, xc = get(X, P.ghost_src[k]), get(X, P.ghost_clamp[k])
@@ -250,8 +274,9 @@ def place_virtual(X, P):
 
 @njit(cache=True, error_model="numpy")
 def pull_back_virtual(X, G, P):
-    """Move gradients on virtual nodes onto the real nodes they are made from (chain rule)."""
-    n = P.n
+    """Move gradients on virtual nodes onto the real nodes they are made from (chain rule):
+    offsets (onto frame nodes and bond points), ghosts, then bond points."""
+    n = P.n + P.bond_nodes.shape[0]
     base = n + P.off_geo.shape[0]
     xl = np.zeros((5, 3))
     gl = np.zeros((5, 3))
@@ -272,6 +297,9 @@ def pull_back_virtual(X, G, P):
         gt = 2.0 * dot(g, t)
         add_to(G, P.ghost_src[k], axpy(-gt, t, g), 1.0)
         add_to(G, P.ghost_clamp[k], t, gt)
+    for k in range(P.bond_nodes.shape[0]):
+        for a in range(3):
+            add_to(G, P.bond_nodes[k, a], get(G, P.n + k), P.bond_w[k, a])
 
 
 
@@ -425,14 +453,38 @@ def gradient(X, P, G, D):
             for r in range(5):
                 if idx[r] >= 0:
                     add_rotated(D, idx[r], P.strip_blocks[k, r], frame)
+    xt = np.zeros((3, 3))
+    gt = np.zeros((3, 3))
+    for k in range(P.tri_idx.shape[0]):
+        fmax = max(fmax, triangle_gradient(X, P.tri_idx[k], P.tri_grad[k], P.tri_par[k], G, D, xt, gt))
+    xr = np.zeros((rod_element.ROWS, 3))
+    gr = np.zeros((rod_element.ROWS, 3))
+    for k in range(P.rod_idx.shape[0]):
+        idx = P.rod_idx[k]
+        rod_element.gather(X, idx, xr)
+        gr[:] = 0.0
+        _, _, frame, _ = rod_element.rod_local(xr, P.rod_par[k], gr, True)
+        for r in range(rod_element.ROWS):
+            if idx[r] >= 0:
+                add_to(G, idx[r], get(gr, r), 1.0)
+                if tensor and P.rod_par[k, rod_element.MODEL] == rod_element.STRIP:
+                    add_rotated(D, idx[r], P.rod_blocks[k, r], frame)
+        for r in range(3):
+            fmax = max(fmax, norm(get(gr, r)))
     pull_back_virtual(X, G, P)
     if tensor:
+        off = P.n + P.bond_nodes.shape[0]
         for k in range(P.off_geo.shape[0]):
             for c in range(6):
-                D[P.off_geo[k, 1], c] += D[P.n + k, c]
-        base = P.n + P.off_geo.shape[0]
+                D[P.off_geo[k, 1], c] += D[off + k, c]
+        base = off + P.off_geo.shape[0]
         for k in range(P.ghost_src.shape[0]):
             add_reflected(D, P.ghost_src[k], D[base + k], get(P.ghost_t, k))
+        # p = sum w_a x_a, w >= 0, sum w = 1: each node's share w_a D_p bounds the Hessian
+        for k in range(P.bond_nodes.shape[0]):
+            for a in range(3):
+                for c in range(6):
+                    D[P.bond_nodes[k, a], c] += P.bond_w[k, a] * D[P.n + k, c]
     return fmax
 
 
@@ -469,6 +521,18 @@ def energy(X, P):
         eb, et, _ = strip_local(xl, idx[3] < 0, idx[4] < 0, P.strip_par[k], gl, False)
         e_bend += eb
         e_twist += et
+    xt = np.zeros((3, 3))
+    for k in range(P.tri_idx.shape[0]):
+        for a in range(3):
+            for c in range(3):
+                xt[a, c] = X[P.tri_idx[k, a], c]
+        e_mem += triangle_local(xt, P.tri_grad[k], P.tri_par[k], xt, False)
+    xr = np.zeros((rod_element.ROWS, 3))
+    for k in range(P.rod_idx.shape[0]):
+        rod_element.gather(X, P.rod_idx[k], xr)
+        eb, et, _, _ = rod_element.rod_local(xr, P.rod_par[k], xr, False)
+        e_bend += eb
+        e_twist += et
     return e_mem, e_bend, e_twist, e_ax
 
 
@@ -501,28 +565,36 @@ def _strip_hessian(xl, fixed1, fixed2, par, H):
 
 @njit(cache=True, error_model="numpy")
 def _strip_blocks(xl, fixed1, fixed2, par, H, out):
-    """Mass blocks of a strip term in its node's material frame, out (5, 6).
+    """Mass blocks of a strip term in its node's material frame, out (5, 6)."""
+    active = np.ones(5, dtype=np.bool_)
+    active[3], active[4] = not fixed1, not fixed2
+    _, _, frame = strip_local(xl, fixed1, fixed2, np.zeros(9), np.zeros((5, 3)), False)
+    frame_blocks(H, active, frame, out)
 
-    With |H| the absolute value of the (symmetrised) Hessian over the term's m active node
-    blocks, H <= |H| <= m blockdiag(|H|) (Cauchy-Schwarz), so m |H|_rr bounds each node's
-    share. Stored in the frame (t, u, n) so that they can turn with the strip.
+
+@njit(cache=True, error_model="numpy")
+def frame_blocks(H, active, frame, out):
+    """Mass blocks out (rows, 6) of a term with Hessian H over its rows, in a material frame.
+
+    With |H| the absolute value of the (symmetrised) Hessian over the term's m active rows,
+    H <= |H| <= m blockdiag(|H|) (Cauchy-Schwarz), so m |H|_rr bounds each row's share. Stored
+    in the frame (t, u, n) so that they can turn with the element.
     """
     Hs = 0.5 * (H + H.T)
     w, V = np.linalg.eigh(Hs)
     A = (V * np.abs(w)) @ V.T
-    active = 0
-    for r in range(5):
-        if not ((r == 3 and fixed1) or (r == 4 and fixed2)):
-            active += 1
-    _, _, frame = strip_local(xl, fixed1, fixed2, np.zeros(9), np.zeros((5, 3)), False)
-    for r in range(5):
+    m = 0
+    for r in range(active.shape[0]):
+        if active[r]:
+            m += 1
+    for r in range(active.shape[0]):
         for a in range(3):
             for b in range(a, 3):
                 v = 0.0
                 for p in range(3):
                     for q in range(3):
                         v += frame[a][p] * A[3 * r + p, 3 * r + q] * frame[b][q]
-                out[r, _SLOT[a][b]] = active * v
+                out[r, _SLOT[a][b]] = m * v if active[r] else 0.0
 
 
 @njit(cache=True, error_model="numpy")
@@ -588,23 +660,47 @@ def stiffness(X, P, S, with_links):
         f1, f2 = idx[3] < 0, idx[4] < 0
         _strip_hessian(xl, f1, f2, P.strip_par[k], H)
         if with_links:
-            for r in range(5):
-                if idx[r] >= 0:
-                    row = 0.0
-                    for c in range(3):
-                        acc = 0.0
-                        for j in range(15):
-                            acc += abs(H[3 * r + c, j])
-                        row = max(row, acc)
-                    S[idx[r]] += row
+            _gershgorin(H, idx, S)
         else:
             _strip_blocks(xl, f1, f2, P.strip_par[k], H, P.strip_blocks[k])
-    n = P.n
+    xt = np.zeros((3, 3))
+    for k in range(P.tri_idx.shape[0]):
+        triangle_stiffness(X, P.tri_idx[k], P.tri_grad[k], P.tri_par[k], S, with_links, xt)
+    xr = np.zeros((rod_element.ROWS, 3))
+    Hr = np.zeros((3 * rod_element.ROWS, 3 * rod_element.ROWS))
+    for k in range(P.rod_idx.shape[0]):
+        idx = P.rod_idx[k]
+        rod_element.gather(X, idx, xr)
+        rod_element.rod_hessian(xr, idx, P.rod_par[k], Hr)
+        if with_links or P.rod_par[k, rod_element.MODEL] == rod_element.PAPER:
+            _gershgorin(Hr, idx, S)  # isotropic bending: an isotropic bound
+        else:
+            _, _, frame, _ = rod_element.rod_local(xr, P.rod_par[k], xr, False)
+            frame_blocks(Hr, idx >= 0, frame, P.rod_blocks[k])
+    n = P.n + P.bond_nodes.shape[0]
     base = n + P.off_geo.shape[0]
     for k in range(P.off_geo.shape[0]):
         S[P.off_geo[k, 1]] += S[n + k]
     for k in range(P.ghost_src.shape[0]):
         S[P.ghost_src[k]] += S[base + k]
+    for k in range(P.bond_nodes.shape[0]):
+        for a in range(3):
+            S[P.bond_nodes[k, a]] += P.bond_w[k, a] * S[P.n + k]
+
+
+@njit(cache=True, error_model="numpy")
+def _gershgorin(H, idx, S):
+    """S[idx[r]] += the largest absolute row sum of H over row block r (Gershgorin)."""
+    for r in range(idx.shape[0]):
+        if idx[r] < 0:
+            continue
+        row = 0.0
+        for c in range(3):
+            acc = 0.0
+            for j in range(H.shape[1]):
+                acc += abs(H[3 * r + c, j])
+            row = max(row, acc)
+        S[idx[r]] += row
 
 
 @njit(cache=True, error_model="numpy")

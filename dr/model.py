@@ -19,6 +19,8 @@ from typing import Iterable, Sequence
 import numpy as np
 
 from .errors import DRError
+from . import rod as rod_element
+from . import triangles as tri_element
 from .kernels import EIS, EIW, GJ, KB, KN0, KT, KW0, LBAR, TAU0, Packed, node_frame, place_virtual, strip_measures
 
 
@@ -34,6 +36,16 @@ def _unit(name: str, v: Sequence[float]) -> np.ndarray:
     if a.shape != (3,) or not np.all(np.isfinite(a)) or np.linalg.norm(a) == 0:
         raise DRError(f"{name} must be a non-zero 3-vector")
     return a / np.linalg.norm(a)
+
+
+@dataclass
+class _Rod:
+    chain: np.ndarray
+    bond: np.ndarray | None
+    EI: float
+    EI_strong: float | None
+    GJ: float | None
+    closed: bool
 
 
 @dataclass
@@ -72,6 +84,9 @@ class Model:
         self._clamps: dict[int, tuple[np.ndarray, bool, np.ndarray]] = {}
         self._offsets: list[tuple[int, float]] = []
         self._offset_ref: list[np.ndarray] = []  # their reference positions, mm
+        self._bonds: list[tuple[np.ndarray, np.ndarray]] = []  # (3 nodes, 3 weights)
+        self._triangles: list[tuple[np.ndarray, float, float, float, bool, int]] = []
+        self._rods: list[_Rod] = []
         self.triangles: np.ndarray | None = None  # optional surface for VTK output
 
     # ------------------------------------------------------------------ helpers
@@ -80,8 +95,13 @@ class Model:
         """Number of real nodes."""
         return self.nodes.shape[0]
 
+    @property
+    def n_virtual(self) -> int:
+        """Number of virtual nodes made so far (bond points, then offsets)."""
+        return len(self._bonds) + len(self._offsets)
+
     def _index(self, name: str, i: int, allow_virtual: bool = False) -> int:
-        limit = self.n + (len(self._offsets) if allow_virtual else 0)
+        limit = self.n + (self.n_virtual if allow_virtual else 0)
         try:
             k = int(i)
         except (TypeError, ValueError):
@@ -96,7 +116,7 @@ class Model:
             raise DRError(f"{name} is empty")
         if not np.issubdtype(arr.dtype, np.integer):
             raise DRError(f"{name} must hold node indices (integers)")
-        limit = self.n + (len(self._offsets) if allow_virtual else 0)
+        limit = self.n + (self.n_virtual if allow_virtual else 0)
         bad = arr[(arr < 0) | (arr >= limit)]
         if bad.size:
             raise DRError(f"{name} holds {bad[0]}, not a node of this model (0 .. {limit - 1})")
@@ -160,10 +180,26 @@ class Model:
         return L0
 
     def _ref_positions(self) -> np.ndarray:
-        """Reference positions of real and virtual (offset) nodes."""
-        if not self._offsets:
-            return self.nodes
-        return np.vstack([self.nodes, self._offset_ref])
+        """Reference positions of real and virtual (bond point, offset) nodes."""
+        bonds = [w @ self.nodes[i] for i, w in self._bonds]
+        return np.vstack([self.nodes, *bonds, *self._offset_ref])
+
+    def bond_point(self, nodes: Sequence[int], weights: Sequence[float]) -> int:
+        """A virtual node at sum_a w_a x_a of three real nodes (w >= 0, sum 1): a film point
+        inside a membrane triangle, e.g. where the film turns a strip edge (its orientation).
+
+        Bond points are made before any offset node. Returns the virtual node's index.
+        """
+        i = self._indices("bond point nodes", nodes)
+        w = np.asarray(weights, dtype=float).reshape(-1)
+        if i.size != 3 or w.size != 3:
+            raise DRError("a bond point needs three nodes and three weights")
+        if not np.all(np.isfinite(w)) or np.any(w < -1e-12) or abs(w.sum() - 1.0) > 1e-9:
+            raise DRError("bond point weights must be >= 0 and sum to 1 (barycentric)")
+        if self._offsets:
+            raise DRError("make bond points before offset nodes (offsets may stand on them)")
+        self._bonds.append((i, np.clip(w, 0.0, None)))
+        return self.n + len(self._bonds) - 1
 
     def add_link(
         self,
@@ -248,7 +284,7 @@ class Model:
         self._rest_lengths("beam edge", c[:n_edges], nxt, None)
         orient = None
         if orientation is not None:
-            orient = self._indices("beam orientation", orientation)
+            orient = self._indices("beam orientation", orientation, True)
             if orient.size != n_edges:
                 raise DRError(f"beam orientation needs one node per edge ({n_edges}), got {orient.size}")
         if EI_strong is not None:
@@ -261,10 +297,117 @@ class Model:
         if ea is not None:
             self.add_link(c[:n_edges], nxt, ea, role="frame")
 
+    def add_triangles(self, triangles: np.ndarray, *, E: float, thickness: float, prestretch: float,
+                      law: str = "linear", tension_only: bool = True) -> None:
+        """Add constant-strain membrane triangles (:mod:`dr.triangles`) over node triples.
+
+        The reference triangles lie in the plane z = const of the nodes (the flat film); the
+        rest state is that shrunk by 1 / ``prestretch``. ``law`` is 'linear' (the link-net
+        law, lattice directions at 0, 60, 120 deg from the x axis) or 'neo-hookean'. Units:
+        E in MPa, the mounted thickness in mm.
+        """
+        t = np.asarray(triangles)
+        if t.ndim != 2 or t.shape[1] != 3 or t.shape[0] == 0:
+            raise DRError("triangles must be a non-empty (t, 3) array of node indices")
+        t = self._indices("triangle nodes", t.ravel()).reshape(-1, 3)
+        if law not in tri_element.LAWS:
+            raise DRError(f"membrane law = {law!r} is not one of {', '.join(map(repr, tri_element.LAWS))}")
+        flat = self.nodes[t]
+        if np.ptp(flat[:, :, 2]) > 1e-9 * max(np.ptp(self.nodes[:, :2]), 1e-300):
+            raise DRError("membrane triangles need a flat reference: their nodes must share one z (mm)")
+        _, area = tri_element.shape_gradients(flat[:, :, :2])
+        if np.any(area <= 1e-12 * np.ptp(self.nodes[:, :2]) ** 2):
+            raise DRError("a membrane triangle has no area: its three nodes lie on one line")
+        self._triangles.append((t, _positive("membrane E (MPa)", E), _positive("membrane thickness (mm)", thickness),
+                                _positive("pre-stretch", prestretch), bool(tension_only), tri_element.LAWS[law]))
+
+    def add_rod(self, chain: Sequence[int], *, EA: float, EI: float, EI_strong: float | None = None,
+                GJ: float | None = None, bond: Sequence[int] | None = None, closed: bool = False) -> None:
+        """Add the discrete rod with bond points (:mod:`dr.rod`, the FEM reference's frame).
+
+        With ``EI_strong`` and ``GJ`` it is the strip (weak-axis EI, strong-axis, torsion; its
+        plane set by ``bond``, one bond node per chain node); otherwise the isotropic rod.
+        Edges whose two ends are supported on all axes keep their flat frame. ``EA`` adds an
+        axial link per edge (role 'frame'). Units: N mm^2, N.
+        """
+        c = self._indices("rod chain", chain)
+        if c.size < 3:
+            raise DRError("a rod chain needs at least 3 nodes")
+        b = None
+        if EI_strong is not None:
+            if GJ is None or bond is None:
+                raise DRError("a strip rod (EI_strong given) also needs GJ and bond nodes")
+            b = self._indices("rod bond", bond)
+            if b.size != c.size:
+                raise DRError(f"rod bond needs one node per chain node ({c.size}), got {b.size}")
+            _positive("rod EI_strong (N mm^2)", EI_strong)
+            _positive("rod GJ (N mm^2)", GJ)
+        self._rods.append(_Rod(c, b, _positive("rod EI (N mm^2)", EI), EI_strong, GJ, bool(closed)))
+        n_edges = c.size if closed else c.size - 1
+        self.add_link(c[:n_edges], np.roll(c, -1)[:n_edges], _positive("rod EA (N)", EA), role="frame")
+
+    def _pack_triangles(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        if not self._triangles:
+            return np.zeros((0, 3), np.int64), np.zeros((0, 3, 2)), np.zeros((0, 5))
+        idx, grads, pars = [], [], []
+        for t, E, h, lam, tension_only, law in self._triangles:
+            g, area = tri_element.shape_gradients(self.nodes[t][:, :, :2])
+            par = np.zeros((t.shape[0], 5))
+            par[:, tri_element.AREA] = area
+            par[:, tri_element.EH] = E * h
+            par[:, tri_element.LAM] = lam
+            par[:, tri_element.TONLY] = float(tension_only)
+            par[:, tri_element.LAW] = law
+            idx.append(t)
+            grads.append(g)
+            pars.append(par)
+        return np.vstack(idx), np.vstack(grads), np.vstack(pars)
+
+    def _pack_rods(self) -> tuple[np.ndarray, np.ndarray]:
+        R = rod_element
+        if not self._rods:
+            return np.zeros((0, R.ROWS), np.int64), np.zeros((0, R.N_PAR))
+        held = self.fixed.all(axis=1)
+        X = self.nodes
+        idx_all, par_all = [], []
+        for rod in self._rods:
+            c, m = rod.chain, rod.chain.size
+            n_edges = m if rod.closed else m - 1
+            ends = np.column_stack([c[:n_edges], np.roll(c, -1)[:n_edges]])
+            edge_held = held[ends[:, 0]] & held[ends[:, 1]]
+            length = np.linalg.norm(X[ends[:, 1]] - X[ends[:, 0]], axis=1)
+            t0 = (X[ends[:, 1]] - X[ends[:, 0]]) / length[:, None]
+            n0 = np.tile([0.0, 0.0, 1.0], (n_edges, 1))
+            rest = np.concatenate([t0, np.cross(n0, t0), n0], axis=1)  # (E, 9): t, d2, n
+            k = np.arange(m) if rod.closed else np.arange(1, m - 1)
+            a, b = (k - 1) % n_edges, k % n_edges
+            keep = ~(edge_held[a] & edge_held[b])
+            a, b = a[keep], b[keep]
+            rows = R.rod_rows(c, rod.bond, rod.closed)[keep]
+            w = np.where(edge_held, 0.0, length)
+            par = np.zeros((rows.shape[0], R.N_PAR))
+            par[:, R.W] = 1.0 / (w[a] + w[b])  # 1 / (2 l_v)
+            par[:, R.EIW] = rod.EI
+            strip = rod.EI_strong is not None
+            par[:, R.MODEL] = R.STRIP if strip else R.PAPER
+            if strip:
+                par[:, R.EIS], par[:, R.GJ] = rod.EI_strong, rod.GJ
+            par[:, R.HELD_A], par[:, R.HELD_B] = edge_held[a], edge_held[b]
+            par[:, R.FRAME_A:R.FRAME_A + 9] = rest[a]
+            par[:, R.FRAME_B:R.FRAME_B + 9] = rest[b]
+            xl = np.zeros((R.ROWS, 3))
+            for r in range(rows.shape[0]):  # rest curvature of the flat state
+                R.gather(X, rows[r], xl)
+                par[r, R.K0:R.K0 + 3] = R.rod_local(xl, par[r], xl, False)[3]
+            idx_all.append(rows)
+            par_all.append(par)
+        return np.vstack(idx_all), np.vstack(par_all)
+
     def scale_membrane_rest_lengths(self, factor: float) -> None:
-        """Multiply the rest lengths of clusters and membrane links by ``factor`` (> 0): how a
-        pre-stretch is changed on a built model (lambda_old / lambda_new)."""
+        """Multiply the rest lengths of clusters, membrane links and triangles by ``factor``
+        (> 0): how a pre-stretch is changed on a built model (lambda_old / lambda_new)."""
         f = _positive("rest-length factor", factor)
+        self._triangles = [(t, E, h, lam / f, to, law) for t, E, h, lam, to, law in self._triangles]
         self._clusters = [(c, ea, L0 * f, to) for c, ea, L0, to in self._clusters]
         self._links = [(i, j, ea, np.where(frame, L0, L0 * f), to, frame) for i, j, ea, L0, to, frame in self._links]
 
@@ -280,11 +423,11 @@ class Model:
         if not np.isfinite(d):
             raise DRError("offset distance must be a finite number (mm)")
         geo = self._frame_geometry(k)
-        xl = np.where(geo[:, None] >= 0, self.nodes[np.maximum(geo, 0)], 0.0)
+        xl = np.where(geo[:, None] >= 0, self._ref_positions()[np.maximum(geo, 0)], 0.0)
         nu = np.array(node_frame(xl, geo[3] < 0, geo[4] < 0)[4])
         self._offsets.append((k, d))
         self._offset_ref.append(self.nodes[k] + d * nu)
-        return self.n + len(self._offsets) - 1
+        return self.n + self.n_virtual - 1
 
     # ------------------------------------------------------------------ packing
     def _ghosts(self) -> list[tuple[int, int, np.ndarray, int]]:
@@ -322,7 +465,7 @@ class Model:
 
     def pack(self) -> Packed:
         """The element arrays the compiled kernels take."""
-        n, n_off = self.n, len(self._offsets)
+        n, n_off = self.n, self.n_virtual
         ghosts = self._ghosts()
         ghost_id = {(b, end): n + n_off + g for g, (b, end, _, _) in enumerate(ghosts)}
         x = self.nodes
@@ -369,9 +512,13 @@ class Model:
         ptr[1:] = np.cumsum([c[0].size for c in self._clusters])
         cl_nodes = np.concatenate([c[0] for c in self._clusters]) if self._clusters else np.zeros(0, np.int64)
         cl_seg = np.concatenate([np.stack([c[0][:-1], c[0][1:]], axis=1) for c in self._clusters]) if self._clusters else np.zeros((0, 2), np.int64)
+        tri_idx, tri_grad, tri_par = self._pack_triangles()
+        rod_idx, rod_par = self._pack_rods()
         cl_seg_cluster = np.repeat(np.arange(len(self._clusters)), [c[0].size - 1 for c in self._clusters])
         P = Packed(
             n=n,
+            bond_nodes=np.array([i for i, _ in self._bonds], dtype=np.int64).reshape(-1, 3),
+            bond_w=np.array([w for _, w in self._bonds], dtype=float).reshape(-1, 3),
             ghost_src=g_src,
             ghost_clamp=g_clamp,
             ghost_t=g_t,
@@ -398,6 +545,12 @@ class Model:
             strip_idx=np.array([r[:5] for r in strip_rows], dtype=np.int64).reshape(-1, 5),
             strip_par=np.zeros((len(strip_rows), 9)),
             strip_blocks=np.zeros((len(strip_rows), 5, 6)),
+            tri_idx=tri_idx,
+            tri_grad=tri_grad,
+            tri_par=tri_par,
+            rod_idx=rod_idx,
+            rod_par=rod_par,
+            rod_blocks=np.zeros((rod_idx.shape[0], rod_element.ROWS, 6)),
         )
         # rest curvatures, lengths and strip rest measures from the reference geometry, with the
         # clamp ghosts mirrored about the clamps' rest tangents

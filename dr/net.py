@@ -14,6 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 import triangle
+from matplotlib.tri import Triangulation
 
 from scenes import Outline, SceneError
 
@@ -42,6 +43,10 @@ class Net:
         (n_frame,) arc length of each frame node, mm.
     cables
         Node chains from frame to frame along the lattice lines.
+    cable_film
+        (c,) area of film each cable stands for, mm^2: the part of the region nearer to its
+        lattice line than to the next kept line of its family (shared by length among the runs
+        of one line), so that each family of cables carries the whole film up to the frame.
     triangles
         (t, 3) counter-clockwise membrane triangles over all nodes (display, strip plane).
     spacing
@@ -54,6 +59,7 @@ class Net:
     n_frame: int
     frame_s: np.ndarray
     cables: list[np.ndarray]
+    cable_film: np.ndarray
     triangles: np.ndarray
     spacing: float
     length: float
@@ -62,17 +68,26 @@ class Net:
         """Index of the frame node nearest to arc length s (mm)."""
         return int(_nearest_periodic(self.frame_s, np.array([s]), self.length)[0])
 
-    def edge_inner_nodes(self) -> np.ndarray:
-        """For each frame edge (k, k+1 mod n_frame), the third node of its membrane triangle."""
+    def bond_points(self, outline: Outline, lever: float) -> tuple[np.ndarray, np.ndarray]:
+        """For each frame edge (k, k+1 mod n_frame), its bond point, as the FEM's: the midpoint
+        of the points ``lever`` mm inside its two ends (along the outline's normals). Returns
+        the three nodes (nf, 3) of the membrane triangle that holds it and their barycentric
+        weights (nf, 3)."""
         nf = self.n_frame
-        out = np.full(nf, -1, dtype=np.int64)
-        for t in self.triangles:
-            for a, b, c in ((t[0], t[1], t[2]), (t[1], t[2], t[0]), (t[2], t[0], t[1])):
-                if a < nf and b < nf and (b - a) % nf == 1:
-                    out[a] = c
-        if np.any(out < 0):
-            raise SceneError("mesh.divisions is too small: a frame edge has no membrane triangle")
-        return out
+        xy0, t = outline.evaluate(self.frame_s)
+        inner = xy0 + lever * np.column_stack([-t[:, 1], t[:, 0]])  # inward: the outline is ccw
+        p = 0.5 * (inner + np.roll(inner, -1, axis=0))
+        xy = self.nodes[:, :2]
+        tri = Triangulation(xy[:, 0], xy[:, 1], self.triangles)
+        cell = tri.get_trifinder()(p[:, 0], p[:, 1])
+        if np.any(cell < 0):
+            raise SceneError(f"frame.bond_lever = {lever:g} mm puts a bond point outside the membrane")
+        corners = self.triangles[cell]
+        q = xy[corners]  # (nf, 3, 2)
+        T = np.stack([q[:, 1] - q[:, 0], q[:, 2] - q[:, 0]], axis=2)
+        w12 = np.linalg.solve(T, (p - q[:, 0])[:, :, None])[:, :, 0]
+        w = np.column_stack([1.0 - w12.sum(axis=1), w12])
+        return corners, np.clip(w, 0.0, 1.0) / np.clip(w, 0.0, 1.0).sum(axis=1)[:, None]
 
 
 def build_net(outline: Outline, divisions: int, landmarks: list[float]) -> Net:
@@ -103,7 +118,8 @@ def build_net(outline: Outline, divisions: int, landmarks: list[float]) -> Net:
 
     # cables: each lattice line, split into runs between its frame crossings
     raw_cables: list[tuple[float, np.ndarray, float]] = []  # (s_start, inner ids, s_end)
-    for direction in DIRECTIONS:
+    raw_line: list[tuple[int, int]] = []  # (family, line number) of each raw cable
+    for family, direction in enumerate(DIRECTIONS):
         normal = np.array([-direction[1], direction[0]])
         line_of = np.round((inner_xy - origin) @ normal / h).astype(int)
         offsets = (poly - origin) @ normal / h
@@ -117,6 +133,7 @@ def build_net(outline: Outline, divisions: int, landmarks: list[float]) -> Net:
                 run = on_line[sel][np.argsort(t_nodes[sel])]
                 if run.size or t_cross[m + 1] - t_cross[m] >= 0.5 * s:
                     raw_cables.append((s_cross[m], run, s_cross[m + 1]))
+                    raw_line.append((family, k))
 
     # frame nodes: cable ends, landmarks, and fill so that segments stay near s
     length = outline.length
@@ -127,13 +144,16 @@ def build_net(outline: Outline, divisions: int, landmarks: list[float]) -> Net:
     nc = len(raw_cables)
     nf = frame_s.size
     frame_xy = outline.evaluate(frame_s)[0]
-    cables = []
+    cables, lines = [], []
     for k, (_, run, _) in enumerate(raw_cables):
         a, b = ends_node[k], ends_node[k + nc]
         if a == b:
             continue  # both ends snapped to one node: a cable of no length
         cables.append(np.concatenate([[a], nf + run, [b]]).astype(np.int64))
+        lines.append(raw_line[k])
     nodes_xy = np.vstack([frame_xy, inner_xy])
+    lengths = np.array([np.linalg.norm(np.diff(nodes_xy[c], axis=0), axis=1).sum() for c in cables])
+    film = _tributary_areas(outline.polyline(s / 32)[0], origin, h, np.array(lines).reshape(-1, 2), lengths)
     seg = np.stack([np.arange(nf), (np.arange(nf) + 1) % nf], axis=1)
     tri = triangle.triangulate({"vertices": nodes_xy, "segments": seg}, "pQ")
     if tri["vertices"].shape[0] != nodes_xy.shape[0]:
@@ -144,7 +164,50 @@ def build_net(outline: Outline, divisions: int, landmarks: list[float]) -> Net:
     t[area2 < 0] = t[area2 < 0][:, ::-1]
     nodes = np.zeros((nodes_xy.shape[0], 3))
     nodes[:, :2] = nodes_xy
-    return Net(nodes, nf, frame_s, cables, t, s, length)
+    return Net(nodes, nf, frame_s, cables, film, t, s, length)
+
+
+def _tributary_areas(poly: np.ndarray, origin: np.ndarray, h: float, lines: np.ndarray,
+                     lengths: np.ndarray) -> np.ndarray:
+    """Film area (mm^2) each cable stands for: per family, the region (polygon ``poly``) cut
+    into slabs halfway between the kept lattice lines (the outermost slabs reach the frame),
+    each slab shared among its line's cables in proportion to their ``lengths``."""
+    area = np.zeros(len(lines))
+    for family, direction in enumerate(DIRECTIONS):
+        normal = np.array([-direction[1], direction[0]])
+        mine = np.flatnonzero(lines[:, 0] == family)
+        offsets = np.unique(lines[mine, 1])
+        cuts = np.concatenate([[-np.inf], 0.5 * (offsets[1:] + offsets[:-1]) * h, [np.inf]])
+        for k, lo, hi in zip(offsets, cuts[:-1], cuts[1:]):
+            slab = _clip(_clip(poly, origin, normal, lo, 1.0), origin, normal, hi, -1.0)
+            on_line = mine[lines[mine, 1] == k]
+            area[on_line] = _shoelace(slab) * lengths[on_line] / lengths[on_line].sum()
+    return area
+
+
+def _clip(poly: np.ndarray, origin: np.ndarray, normal: np.ndarray, cut: float, sign: float) -> np.ndarray:
+    """The part of polygon ``poly`` where sign * ((x - origin) . normal - cut) >= 0
+    (Sutherland-Hodgman against one half-plane)."""
+    if poly.shape[0] == 0 or not np.isfinite(cut):
+        return poly
+    d = sign * ((poly - origin) @ normal - cut)
+    nxt = np.roll(poly, -1, axis=0)
+    d_next = np.roll(d, -1)
+    inside = d >= 0
+    crossing = inside != (d_next >= 0)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        cross = poly + (nxt - poly) * (d / np.where(crossing, d - d_next, 1.0))[:, None]
+    # each vertex, if inside, then the crossing on its way to the next, if any
+    points = np.stack([poly, cross], axis=1).reshape(-1, 2)
+    keep = np.stack([inside, crossing], axis=1).ravel()
+    return points[keep]
+
+
+def _shoelace(poly: np.ndarray) -> float:
+    if poly.shape[0] < 3:
+        return 0.0
+    x, y = poly[:, 0], poly[:, 1]
+    return 0.5 * abs(float(np.dot(x, np.roll(y, -1)) - np.dot(y, np.roll(x, -1))))
 
 
 def _nearest_periodic(grid: np.ndarray, values: np.ndarray, length: float) -> np.ndarray:

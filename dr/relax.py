@@ -117,7 +117,7 @@ def relax(
     t0 = time.perf_counter()
     P = model.pack()
     n = P.n
-    X = np.zeros((n + P.off_geo.shape[0] + P.ghost_src.shape[0], 3))
+    X = np.zeros((P.n_total, 3))
     if x_start is None:
         X[:n] = model.nodes
     else:
@@ -333,7 +333,9 @@ def make_result(
     n = P.n
     # display: offsets and ghosts are drawn at the frame node they belong to
     real = np.arange(X.shape[0])
-    real[n : n + P.off_geo.shape[0]] = P.off_geo[:, 1]
+    nb = P.bond_nodes.shape[0]
+    real[n : n + nb] = P.bond_nodes[np.arange(nb), np.argmax(P.bond_w, axis=1)] if nb else real[n : n + nb]
+    real[n + nb : n + nb + P.off_geo.shape[0]] = P.off_geo[:, 1]
     blocks: dict[str, CellBlock] = {}
     mem = ~P.link_frame
     if mem.any():

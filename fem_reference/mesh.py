@@ -1,13 +1,6 @@
-"""Triangle mesh of the membrane region whose boundary nodes lie on the frame centreline.
-
-The region inside ``scene.outline`` is meshed with ``triangle`` (quality mesh, no Steiner points on
-the boundary) at the scene's spacing h0 = side / divisions, with boundary nodes at every piece end
-of the outline (fillet ends, so the clamps), at the base midpoint s = 0 and at the apex. A mirror-
-symmetric outline is meshed on its right half and mirrored, so a symmetric scene gives a
-symmetric discrete problem. ``refinement = k`` splits every triangle into four k times (element
-size h0 / 2^k, nested meshes for a clean convergence study); new boundary nodes are put back on
-the curved outline at the mid arc length of their edge. P2 meshes are isoparametric
-(``MeshTri2``) with their boundary edge nodes on the outline as well.
+"""The membrane mesh as scikit-fem sees it: the scene's one triangle mesh (``scenes.mesh``, which
+DR's membrane triangles use too), as P1 or isoparametric P2 (``MeshTri2``, boundary edge nodes
+on the outline as well).
 
 Node numbering is scikit-fem's DOF numbering: vertices first, then (P2) one node per edge.
 """
@@ -18,11 +11,11 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 import scipy.sparse as sp
-import triangle as tr
 from matplotlib.tri import Triangulation
 from skfem import Basis, ElementTriP1, ElementTriP2, ElementVector, MeshTri1, MeshTri2
 
 from scenes import Scene, SceneError
+from scenes.mesh import mid_arc_length, membrane_mesh
 
 from .errors import FEMError
 
@@ -48,8 +41,8 @@ class MembraneMesh:
     frame_nodes, frame_s
         Boundary nodes ordered counter-clockwise from the base midpoint, and their arc lengths (mm).
     frame_inner
-        (nf, 2) for each frame node its point on the strip's inner edge (b/2 inside), mm: a line
-        of mesh edges.
+        (nf, 2) for each frame node its point on the bond line (``frame.bond_lever`` inside), mm:
+        a line of mesh edges.
     spacing
         Boundary node spacing along the outline, mm (vertex to vertex).
     cells, cell_type
@@ -120,123 +113,6 @@ class MembraneMesh:
         return P @ x + (Gx @ x) * offset[:, :1] + (Gy @ x) * offset[:, 1:]
 
 
-# ----------------------------------------------------------------------------- boundary
-
-
-def _is_mirror_symmetric(scene: Scene) -> bool:
-    o = scene.outline
-    s = np.linspace(0.0, o.length, 721, endpoint=False)
-    p, _ = o.evaluate(s)
-    q, _ = o.evaluate(o.length - s)
-    return bool(np.allclose(p * [-1.0, 1.0], q, atol=1e-9 * o.side_length))
-
-
-def _boundary_arc_lengths(landmarks: np.ndarray, start: float, stop: float, h: float) -> np.ndarray:
-    """Arc lengths in [start, stop) at most h apart, every landmark in that range included."""
-    marks = np.unique(np.concatenate([[start, stop], landmarks[(landmarks > start) & (landmarks < stop)]]))
-    parts = []
-    for a, b in zip(marks[:-1], marks[1:]):
-        n = max(1, int(np.ceil((b - a) / h - 1e-9)))
-        parts.append(a + (b - a) * np.arange(n) / n)
-    return np.concatenate(parts)
-
-
-def _triangulate(points: np.ndarray, loop: int, extra_segments: np.ndarray, h: float
-                 ) -> tuple[np.ndarray, np.ndarray]:
-    """Triangles of the closed polygon ``points[:loop]`` with further points and interior
-    segments (the bonded strip's inner edge) that every mesh must follow; no new points on any
-    segment."""
-    segments = np.vstack([np.column_stack([np.arange(loop), np.roll(np.arange(loop), -1)]),
-                          extra_segments]).astype(np.int32)
-    area = np.sqrt(3.0) / 4.0 * h * h
-    out = tr.triangulate({"vertices": points, "segments": segments}, f"pq30a{area:.10f}YY")
-    if not np.allclose(out["vertices"][: len(points)], points):
-        raise FEMError("the mesh generator moved the outline's points: the outline is too coarse for "
-                       "its corners; raise mesh.divisions or frame.corner_radius")
-    return out["vertices"], out["triangles"]
-
-
-def _inner_points(scene: Scene, s: np.ndarray) -> np.ndarray:
-    """Points b/2 inside the outline at arc lengths s: the inner edge of the bonded strip."""
-    p, t = scene.outline.evaluate(s)
-    return p + 0.5 * scene.frame.width * np.column_stack([-t[:, 1], t[:, 0]])
-
-
-def _spaced(a: float, b: float, h: float) -> np.ndarray:
-    """Points from a (included) towards b (excluded) at most h apart."""
-    n = max(1, int(np.ceil(abs(b - a) / h - 1e-9)))
-    return a + (b - a) * np.arange(n) / n
-
-
-def _base_mesh(scene: Scene) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """Vertices (nv, 2), triangles (nt, 3), boundary vertex ids, their arc lengths, and their
-    points on the strip's inner edge (nb, 2), at the scene's spacing h0.
-
-    The inner edge of the bonded strip (b/2 inside the centreline) is a line of mesh nodes: the
-    strip's orientation is tied to the film there, and the film kinks along it.
-    """
-    o = scene.outline
-    h = scene.spacing
-    L = o.length
-    half_b = 0.5 * scene.frame.width
-    s_apex = o.apex_arc_length()
-    landmarks = np.unique(np.concatenate([o.breakpoints(), [s_apex, *scene.base_region()]]))
-    if _is_mirror_symmetric(scene):
-        s_right = _boundary_arc_lengths(landmarks, 0.0, s_apex, h)
-        right = o.evaluate(s_right)[0]
-        right[0, 0] = 0.0
-        apex = o.evaluate(s_apex)[0][0]
-        apex[0] = 0.0
-        inner = _inner_points(scene, np.append(s_right, s_apex))
-        inner[[0, -1], 0] = 0.0
-        H = apex[1]
-        y_sym = np.concatenate([_spaced(H, H - half_b, h), _spaced(H - half_b, half_b, h),
-                                _spaced(half_b, 0.0, h)])[1:]
-        sym = np.column_stack([np.zeros_like(y_sym), y_sym])  # apex side down to y > 0
-        loop = np.vstack([right, apex, sym])
-        nl = len(loop)
-        i_top = len(right) + 1 + int(np.argmin(np.abs(y_sym - (H - half_b))))
-        i_bottom = len(right) + 1 + int(np.argmin(np.abs(y_sym - half_b)))
-        chain = np.concatenate([[i_bottom], nl + np.arange(len(right) - 1), [i_top]])
-        verts, tris = _triangulate(np.vstack([loop, inner[1:-1]]), nl,
-                                   np.column_stack([chain[:-1], chain[1:]]), h)
-        on_axis = np.abs(verts[:, 0]) < 1e-9 * o.side_length
-        verts[on_axis, 0] = 0.0
-        mirror_id = np.arange(len(verts))
-        off = np.flatnonzero(~on_axis)
-        mirror_id[off] = len(verts) + np.arange(off.size)
-        verts = np.vstack([verts, verts[off] * [-1.0, 1.0]])
-        tris = np.vstack([tris, mirror_id[tris][:, ::-1]])
-        # boundary: right half 0..len(right) (apex), then the mirrored right half, reversed
-        b_right = np.arange(len(right) + 1)
-        b_left = mirror_id[np.arange(1, len(right))][::-1]
-        s_b = _snap(np.concatenate([np.append(s_right, s_apex), (L - s_right[1:])[::-1]]), landmarks, L)
-        inner_b = np.vstack([inner, (inner[1:-1] * [-1.0, 1.0])[::-1]])
-        return verts, tris, np.concatenate([b_right, b_left]), s_b, inner_b
-    s = _boundary_arc_lengths(landmarks, 0.0, L, h)
-    inner = _inner_points(scene, s)
-    m = s.size
-    ring = m + np.arange(m)
-    verts, tris = _triangulate(np.vstack([o.evaluate(s)[0], inner]), m,
-                               np.column_stack([ring, np.roll(ring, -1)]), h)
-    return verts, tris, np.arange(m), s, inner
-
-
-def _snap(s: np.ndarray, landmarks: np.ndarray, L: float) -> np.ndarray:
-    """Arc lengths equal to a landmark up to round-off (mirrored ones) set exactly to it."""
-    k = np.abs(s[:, None] - landmarks[None, :]) < 1e-9 * L
-    out = s.copy()
-    rows, cols = np.nonzero(k)
-    out[rows] = landmarks[cols]
-    return out
-
-
-def _mid_arc_length(sa: np.ndarray, sb: np.ndarray, L: float) -> np.ndarray:
-    """Arc length halfway between sa and sb along the shorter way round the closed outline."""
-    d = np.mod(sb - sa + 0.5 * L, L) - 0.5 * L
-    return np.mod(sa + 0.5 * d, L)
-
-
 # ----------------------------------------------------------------------------- build
 
 
@@ -248,46 +124,28 @@ def build_mesh(scene: Scene, refinement: int = 0, element: str = "P1") -> Membra
     SceneError
         If ``refinement`` or ``element`` is not valid.
     """
-    if isinstance(refinement, bool) or not isinstance(refinement, (int, np.integer)) or refinement < 0:
-        raise SceneError(f"fem.refinement = {refinement!r} must be a whole number >= 0")
     if element not in ELEMENTS:
         raise SceneError(f"fem.element = {element!r} is not one of {', '.join(map(repr, ELEMENTS))}")
     o = scene.outline
     L = o.length
-    verts, tris, b_ids, b_s, b_inner = _base_mesh(scene)
-    mesh = MeshTri1(verts.T.copy(), tris.T.copy())
-    s_of = np.full(mesh.p.shape[1], np.nan)
-    s_of[b_ids] = b_s
-    inner_of = np.full((mesh.p.shape[1], 2), np.nan)
-    inner_of[b_ids] = b_inner
-    for _ in range(int(refinement)):
-        facets = mesh.boundary_facets()
-        a, b = mesh.facets[:, facets]
-        s_mid = _mid_arc_length(s_of[a], s_of[b], L)
-        nv = mesh.p.shape[1]
-        fine = mesh.refined()
-        p = fine.p.copy()
-        new = nv + facets  # refined() numbers edge midpoints after the old vertices, in facet order
-        p[:, new] = o.evaluate(s_mid)[0].T
-        mesh = MeshTri1(p, fine.t)
-        s_of = np.concatenate([s_of, np.full(p.shape[1] - nv, np.nan)])
-        s_of[new] = s_mid
-        inner_of = np.vstack([inner_of, np.full((p.shape[1] - nv, 2), np.nan)])
-        inner_of[new] = 0.5 * (inner_of[a] + inner_of[b])  # the inner edge's new mid node
+    shared = membrane_mesh(scene, refinement)
+    mesh = MeshTri1(shared.nodes.T.copy(), shared.triangles.T.copy())
     linear = mesh
-    b_vert = np.flatnonzero(~np.isnan(s_of))
-    if not np.array_equal(np.sort(b_vert), np.sort(mesh.boundary_nodes())):
+    if not np.array_equal(np.sort(shared.frame_nodes), np.sort(mesh.boundary_nodes())):
         raise FEMError("the film mesh's boundary does not follow the outline (a corner too tight for the "
-                       "mesh spacing, or the strip's inner edge crossing itself); raise frame.corner_radius "
+                       "mesh spacing, or the bond line crossing itself); raise frame.corner_radius "
                        "or mesh.divisions")
-    nodes_s = s_of[b_vert]
-    nodes_inner = inner_of[b_vert]
+    b_vert, nodes_s, nodes_inner = shared.frame_nodes, shared.frame_s, shared.frame_bond
     nv = mesh.p.shape[1]
     if element == "P2":
+        s_of = np.full(nv, np.nan)
+        s_of[b_vert] = nodes_s
+        inner_of = np.full((nv, 2), np.nan)
+        inner_of[b_vert] = nodes_inner
         quad = MeshTri2.from_mesh(mesh)
         facets = quad.boundary_facets()
         a, b = quad.facets[:, facets]
-        s_mid = _mid_arc_length(s_of[a], s_of[b], L)
+        s_mid = mid_arc_length(s_of[a], s_of[b], L)
         doflocs = quad.doflocs.copy()
         doflocs[:, nv + facets] = o.evaluate(s_mid)[0].T
         mesh = replace(quad, doflocs=doflocs)
@@ -316,7 +174,7 @@ def build_mesh(scene: Scene, refinement: int = 0, element: str = "P1") -> Membra
         frame_nodes=b_vert[order],
         frame_s=nodes_s[order],
         frame_inner=nodes_inner[order],
-        spacing=scene.spacing / 2**int(refinement),
+        spacing=shared.spacing,
         cells=cells,
         cell_type=cell_type,
     )

@@ -106,7 +106,7 @@ class Continuation:
         self.snaps: list[tuple[float, float]] = []  # (last state on the branch, state snapped to)
         self.up = np.sign(self.scene.perturbation.amplitude) or 1.0  # + : apex up
         centroids = problem.X[problem.mesh.cells[:, :3], :2].mean(axis=1)
-        self.band = self.scene.outline.distance(centroids) < 0.5 * self.scene.frame.width
+        self.band = self.scene.outline.distance(centroids) < self.scene.frame.lever
 
     # ------------------------------------------------------------------ one state
     def _lowest(self, y: np.ndarray) -> tuple[float, np.ndarray]:
@@ -357,7 +357,7 @@ def make_result(problem: DemesProblem, out: Outcome, requested: float, wall: flo
         "mesh_size_mm": mesh.spacing,
         "frame_model": scene.frame.model,
         "film_offset_mm": problem.offset,
-        "director_lever_mm": 0.5 * scene.frame.width,
+        "director_lever_mm": scene.frame.lever,
         "compressed_area_fraction": compressed,
         "slack_area_fraction_any": slack[0],
         "slack_area_fraction_full": slack[1],

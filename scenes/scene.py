@@ -222,6 +222,10 @@ class FrameSpec(_Section):
     I: float | None = spec(
         0.0003, optional(positive), "mm^4", "weak-axis / isotropic second moment; default b t^3/12"
     )
+    bond_lever: float | None = spec(
+        None, optional(positive), "mm",
+        "distance from the centreline to the film points that turn the strip's section; default b/2",
+    )
 
     def __post_init__(self) -> None:
         super().__post_init__()
@@ -240,6 +244,11 @@ class FrameSpec(_Section):
                 f"frame.thickness = {self.thickness:g} mm must be smaller than frame.width = "
                 f"{self.width:g} mm: the strip bends about its weak axis out of the membrane plane"
             )
+        if self.bond_lever is not None and self.bond_lever > self.width:
+            raise SceneError(
+                f"frame.bond_lever = {self.bond_lever:g} mm must not exceed frame.width = "
+                f"{self.width:g} mm: the film is bonded across the strip, not beyond it"
+            )
         _ = self.geometry  # build (and so check) the outline now
 
     @cached_property
@@ -248,6 +257,11 @@ class FrameSpec(_Section):
         if self.outline == "triangle":
             return Outline(equilateral_triangle(self.side_length), self.corner_radius)
         return Outline(np.array(self.vertices), self.corner_radius)
+
+    @property
+    def lever(self) -> float:
+        """Bond lever (mm): where, inside the centreline, the film turns the strip's section."""
+        return self.bond_lever if self.bond_lever is not None else 0.5 * self.width
 
     @property
     def area(self) -> float:
@@ -363,9 +377,10 @@ class DRSpec(_Section):
     _prefix = "dr"
     membrane_net: str = spec(
         "clustered",
-        one_of("clustered", "links"),
+        one_of("clustered", "links", "triangles"),
         "",
-        "'clustered': one tension per lattice line (the paper); 'links': one per segment",
+        "'clustered': one tension per lattice line (the paper); 'links': one per segment; "
+        "'triangles': constant-strain triangles on the FEM's mesh at fem.refinement",
     )
     tolerance: float = spec(
         1e-6, between(1e-12, 0.1, why=" (relative residual; below 1e-12 it is round-off)"), "",

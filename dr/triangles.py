@@ -1,0 +1,213 @@
+"""DR membrane element: the constant-strain triangle with the FEM reference's laws.
+
+Each triangle is flat and stress-free in the reference (the flat mesh shrunk by 1/lambda), its
+deformation gradient F = sum_a x_a (grad N_a)^T (3x2, grad N_a the flat shape-function
+gradients) is constant, and its energy is the flat area times the law's W(F) (N/mm):
+
+* ``LINEAR``: the three-family link-net law W = E h / (2 lambda) sum_k eps_k^2,
+  eps_k = lambda |F m_k| - 1 for the lattice directions m_k at 0, 60 and 120 deg, and with
+  ``tension_only`` a family in compression carries nothing;
+* ``NEO_HOOKEAN``: incompressible, mu = E / 3, W = mu h / 2 (lambda^2 tr C + 1 / (lambda^4 det C) - 3),
+  C = F^T F.
+
+Forces are the exact gradient of that energy. Stiffness bounds for the masses: a family k acts
+like a link along f_k = F m_k joining the nodes with weights c_ka = grad N_a . m_k, so its
+Hessian is (c c^T) (x) (E h A lambda e e^T + E h A eps_k / |f_k| (I - e e^T)) and each node's share
+is bounded by |c_ka| sum_b |c_kb| times that block (Cauchy-Schwarz). The neo-Hookean triangle
+gets the Gershgorin row sums of its Hessian (central differences of the exact gradient).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+from .vec import add_to, get, norm, scale
+
+LINEAR, NEO_HOOKEAN = 0, 1
+LAWS = {"linear": LINEAR, "neo-hookean": NEO_HOOKEAN}
+
+# columns of Packed.tri_par
+AREA, EH, LAM, TONLY, LAW = range(5)
+
+_C = math.cos(math.pi / 3.0)
+_S = math.sin(math.pi / 3.0)
+DIRECTIONS = np.array([[1.0, 0.0], [_C, _S], [-_C, _S]])
+"""The lattice directions m_k (the base side is the x axis), as the FEM's linear law."""
+
+
+def shape_gradients(flat: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Shape-function gradients (t, 3, 2) in 1/mm and areas (t,) mm^2 of flat triangles (t, 3, 2)."""
+    e1, e2 = flat[:, 1] - flat[:, 0], flat[:, 2] - flat[:, 0]
+    det = e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]
+    inv = np.stack([np.column_stack([e2[:, 1], -e1[:, 1]]), np.column_stack([-e2[:, 0], e1[:, 0]])],
+                   axis=1) / det[:, None, None]  # rows: d(xi, eta)/dx, d/dy
+    g = np.zeros((flat.shape[0], 3, 2))
+    g[:, 1] = inv[:, :, 0]
+    g[:, 2] = inv[:, :, 1]
+    g[:, 0] = -g[:, 1] - g[:, 2]
+    return g, 0.5 * np.abs(det)
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def _family(xl, gN, k):
+    """f = F m_k and its node weights c_a = grad N_a . m_k, from local rows xl (3, 3)."""
+    mx, my = DIRECTIONS[k, 0], DIRECTIONS[k, 1]
+    c0 = gN[0, 0] * mx + gN[0, 1] * my
+    c1 = gN[1, 0] * mx + gN[1, 1] * my
+    c2 = gN[2, 0] * mx + gN[2, 1] * my
+    f = (c0 * xl[0, 0] + c1 * xl[1, 0] + c2 * xl[2, 0],
+         c0 * xl[0, 1] + c1 * xl[1, 1] + c2 * xl[2, 1],
+         c0 * xl[0, 2] + c1 * xl[1, 2] + c2 * xl[2, 2])
+    return f, (c0, c1, c2)
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def _strain(par, lf):
+    eps = par[LAM] * lf - 1.0
+    if par[TONLY] > 0.0 and eps < 0.0:
+        return 0.0
+    return eps
+
+
+@njit(cache=True, error_model="numpy")
+def _neo_hookean(xl, gN, par, P):
+    """W (N/mm) and P = dW/dF into P (3, 2) (skipped if P has no rows)."""
+    F = np.zeros((3, 2))
+    for a in range(3):
+        for i in range(3):
+            for j in range(2):
+                F[i, j] += xl[a, i] * gN[a, j]
+    lam = par[LAM]
+    mu_h = par[EH] / 3.0
+    g11 = F[0, 0] * F[0, 0] + F[1, 0] * F[1, 0] + F[2, 0] * F[2, 0]
+    g22 = F[0, 1] * F[0, 1] + F[1, 1] * F[1, 1] + F[2, 1] * F[2, 1]
+    g12 = F[0, 0] * F[0, 1] + F[1, 0] * F[1, 1] + F[2, 0] * F[2, 1]
+    det = g11 * g22 - g12 * g12
+    l2 = lam * lam
+    W = 0.5 * mu_h * (l2 * (g11 + g22) + 1.0 / (l2 * l2 * det) - 3.0)
+    if P.shape[0] > 0:
+        # d(1/det C)/dF = -2 F C^-1 / det C, C^-1 = [[g22, -g12], [-g12, g11]] / det
+        s = 1.0 / (l2 * l2 * det * det)
+        for i in range(3):
+            a, b = F[i, 0], F[i, 1]
+            P[i, 0] = mu_h * (l2 * a - s * (a * g22 - b * g12))
+            P[i, 1] = mu_h * (l2 * b - s * (b * g11 - a * g12))
+    return W
+
+
+@njit(cache=True, error_model="numpy")
+def triangle_local(xl, gN, par, gl, want_grad):
+    """Energy (N mm) of one triangle from its local rows xl (3, 3); with ``want_grad`` its
+    gradient is added to gl (3, 3)."""
+    if par[LAW] == NEO_HOOKEAN:
+        P = np.zeros((3 if want_grad else 0, 2))
+        W = _neo_hookean(xl, gN, par, P)
+        if want_grad:
+            for a in range(3):
+                for i in range(3):
+                    gl[a, i] += par[AREA] * (P[i, 0] * gN[a, 0] + P[i, 1] * gN[a, 1])
+        return par[AREA] * W
+    w = 0.0
+    for k in range(3):
+        f, c = _family(xl, gN, k)
+        lf = norm(f)
+        eps = _strain(par, lf)
+        w += eps * eps
+        if want_grad:
+            t = par[AREA] * par[EH] * eps / lf  # d(energy)/df divided by |f|, N/mm
+            for a in range(3):
+                add_to(gl, a, f, t * c[a])
+    return par[AREA] * par[EH] / (2.0 * par[LAM]) * w
+
+
+@njit(cache=True, error_model="numpy")
+def _gather(X, idx, xl):
+    for a in range(3):
+        for i in range(3):
+            xl[a, i] = X[idx[a], i]
+
+
+@njit(cache=True, error_model="numpy")
+def triangle_gradient(X, idx, gN, par, G, D, xl, gl):
+    """Add one triangle's energy gradient to G (N) and, if D has rows, its link-like stiffness
+    blocks (linear law). xl, gl: (3, 3) scratch. Returns the largest nodal force, N."""
+    _gather(X, idx, xl)
+    gl[:] = 0.0
+    triangle_local(xl, gN, par, gl, True)
+    fmax = 0.0
+    for a in range(3):
+        add_to(G, idx[a], get(gl, a), 1.0)
+        fmax = max(fmax, norm(get(gl, a)))
+    if D.shape[0] == 0 or par[LAW] == NEO_HOOKEAN:
+        return fmax
+    k_axial = par[AREA] * par[EH] * par[LAM]
+    for k in range(3):
+        f, c = _family(xl, gN, k)
+        lf = norm(f)
+        e = scale(f, 1.0 / lf)
+        k_geo = abs(par[AREA] * par[EH] * _strain(par, lf)) / lf
+        csum = abs(c[0]) + abs(c[1]) + abs(c[2])
+        for a in range(3):
+            w = abs(c[a]) * csum
+            _add_block(D, idx[a], e, w * k_axial, w * k_geo)
+    return fmax
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def _add_block(D, i, e, k_axial, k_geo):
+    """D[i] += k_axial e e^T + k_geo (I - e e^T); D rows are xx yy zz xy xz yz."""
+    kd = k_axial - k_geo
+    D[i, 0] += kd * e[0] * e[0] + k_geo
+    D[i, 1] += kd * e[1] * e[1] + k_geo
+    D[i, 2] += kd * e[2] * e[2] + k_geo
+    D[i, 3] += kd * e[0] * e[1]
+    D[i, 4] += kd * e[0] * e[2]
+    D[i, 5] += kd * e[1] * e[2]
+
+
+@njit(cache=True, error_model="numpy")
+def triangle_stiffness(X, idx, gN, par, S, with_links, xl):
+    """Add a per-node scalar stiffness bound (N/mm) to S: the linear law's link-like bound when
+    ``with_links`` (tensor masses take it from :func:`triangle_gradient` instead), the
+    neo-Hookean triangle's Gershgorin row sums always. xl: (3, 3) scratch."""
+    _gather(X, idx, xl)
+    if par[LAW] == NEO_HOOKEAN:
+        H = np.zeros((9, 9))
+        gp = np.zeros((3, 3))
+        gm = np.zeros((3, 3))
+        h = 1e-6 / max(abs(gN[1, 0]) + abs(gN[1, 1]), 1e-300)
+        for b in range(3):
+            for j in range(3):
+                x0 = xl[b, j]
+                gp[:] = 0.0
+                gm[:] = 0.0
+                xl[b, j] = x0 + h
+                triangle_local(xl, gN, par, gp, True)
+                xl[b, j] = x0 - h
+                triangle_local(xl, gN, par, gm, True)
+                xl[b, j] = x0
+                for a in range(3):
+                    for i in range(3):
+                        H[3 * a + i, 3 * b + j] = (gp[a, i] - gm[a, i]) / (2.0 * h)
+        for a in range(3):
+            row = 0.0
+            for i in range(3):
+                acc = 0.0
+                for col in range(9):
+                    acc += abs(H[3 * a + i, col])
+                row = max(row, acc)
+            S[idx[a]] += row
+        return
+    if not with_links:
+        return
+    k_axial = par[AREA] * par[EH] * par[LAM]
+    for k in range(3):
+        f, c = _family(xl, gN, k)
+        lf = norm(f)
+        k_geo = abs(par[AREA] * par[EH] * _strain(par, lf)) / lf
+        csum = abs(c[0]) + abs(c[1]) + abs(c[2])
+        for a in range(3):
+            S[idx[a]] += abs(c[a]) * csum * (k_axial + k_geo)

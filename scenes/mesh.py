@@ -1,0 +1,218 @@
+"""The membrane's triangle mesh, defined once for every solver (FEM reference and DR triangles).
+
+The region inside ``scene.outline`` is meshed with ``triangle`` (quality mesh, no Steiner points
+on the boundary) at the scene's spacing h0 = side / divisions, with boundary nodes at every piece
+end of the outline (fillet ends, so the clamps), at the base midpoint s = 0 and at the apex. The
+strip's bond line, ``frame.bond_lever`` inside the centreline, is a line of mesh edges whose
+vertices are the frame nodes' *bond nodes*: the film points that turn the strip's cross-section.
+A mirror-symmetric outline is meshed on its right half and mirrored, so a symmetric scene gives a
+symmetric discrete problem. ``refinement = k`` splits every triangle into four k times (element
+size h0 / 2^k, nested meshes); new boundary nodes are put back on the curved outline at the mid
+arc length of their edge, new bond-line nodes halfway between their neighbours on it.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import triangle as tr
+
+from .errors import SceneError
+from .scene import Scene
+
+
+@dataclass(frozen=True)
+class TriangleMesh:
+    """Flat straight-sided triangle mesh of a scene's membrane.
+
+    Attributes
+    ----------
+    nodes
+        (nv, 2) flat positions, mm.
+    triangles
+        (nt, 3) vertex ids, counter-clockwise seen from +z.
+    frame_nodes, frame_s
+        Boundary vertices ordered counter-clockwise from the base midpoint, and their arc
+        lengths along the outline, mm.
+    bond_nodes
+        (nf,) for each frame node the vertex on the bond line beside it.
+    spacing
+        Boundary node spacing along the outline, mm.
+    """
+
+    nodes: np.ndarray
+    triangles: np.ndarray
+    frame_nodes: np.ndarray
+    frame_s: np.ndarray
+    bond_nodes: np.ndarray
+    spacing: float
+
+    @property
+    def frame_bond(self) -> np.ndarray:
+        """(nf, 2) the bond-line points of the frame nodes, mm."""
+        return self.nodes[self.bond_nodes]
+
+
+# ----------------------------------------------------------------------------- boundary
+
+
+def _is_mirror_symmetric(scene: Scene) -> bool:
+    o = scene.outline
+    s = np.linspace(0.0, o.length, 721, endpoint=False)
+    p, _ = o.evaluate(s)
+    q, _ = o.evaluate(o.length - s)
+    return bool(np.allclose(p * [-1.0, 1.0], q, atol=1e-9 * o.side_length))
+
+
+def _boundary_arc_lengths(landmarks: np.ndarray, start: float, stop: float, h: float) -> np.ndarray:
+    """Arc lengths in [start, stop) at most h apart, every landmark in that range included."""
+    marks = np.unique(np.concatenate([[start, stop], landmarks[(landmarks > start) & (landmarks < stop)]]))
+    parts = []
+    for a, b in zip(marks[:-1], marks[1:]):
+        n = max(1, int(np.ceil((b - a) / h - 1e-9)))
+        parts.append(a + (b - a) * np.arange(n) / n)
+    return np.concatenate(parts)
+
+
+def _triangulate(points: np.ndarray, loop: int, extra_segments: np.ndarray, h: float
+                 ) -> tuple[np.ndarray, np.ndarray]:
+    """Triangles of the closed polygon ``points[:loop]`` with further points and interior
+    segments (the bond line) that every mesh must follow; no new points on any segment."""
+    segments = np.vstack([np.column_stack([np.arange(loop), np.roll(np.arange(loop), -1)]),
+                          extra_segments]).astype(np.int32)
+    area = np.sqrt(3.0) / 4.0 * h * h
+    out = tr.triangulate({"vertices": points, "segments": segments}, f"pq30a{area:.10f}YY")
+    if not np.allclose(out["vertices"][: len(points)], points):
+        raise SceneError("the outline is too coarse for a membrane mesh (corners too tight for its spacing): "
+                         "raise mesh.divisions or frame.corner_radius")
+    return out["vertices"], out["triangles"]
+
+
+def _bond_points(scene: Scene, s: np.ndarray) -> np.ndarray:
+    """Points ``frame.bond_lever`` inside the outline at arc lengths s: the bond line."""
+    p, t = scene.outline.evaluate(s)
+    return p + scene.frame.lever * np.column_stack([-t[:, 1], t[:, 0]])
+
+
+def _spaced(a: float, b: float, h: float) -> np.ndarray:
+    """Points from a (included) towards b (excluded) at most h apart."""
+    n = max(1, int(np.ceil(abs(b - a) / h - 1e-9)))
+    return a + (b - a) * np.arange(n) / n
+
+
+def _snap(s: np.ndarray, landmarks: np.ndarray, L: float) -> np.ndarray:
+    """Arc lengths equal to a landmark up to round-off (mirrored ones) set exactly to it."""
+    k = np.abs(s[:, None] - landmarks[None, :]) < 1e-9 * L
+    out = s.copy()
+    rows, cols = np.nonzero(k)
+    out[rows] = landmarks[cols]
+    return out
+
+
+def mid_arc_length(sa: np.ndarray, sb: np.ndarray, L: float) -> np.ndarray:
+    """Arc length halfway between sa and sb along the shorter way round the closed outline."""
+    d = np.mod(sb - sa + 0.5 * L, L) - 0.5 * L
+    return np.mod(sa + 0.5 * d, L)
+
+
+def _base_mesh(scene: Scene) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Vertices (nv, 2), triangles (nt, 3), boundary vertex ids, their arc lengths and their
+    bond-line vertex ids, at the scene's spacing h0."""
+    o = scene.outline
+    h = scene.spacing
+    L = o.length
+    lever = scene.frame.lever
+    s_apex = o.apex_arc_length()
+    landmarks = np.unique(np.concatenate([o.breakpoints(), [s_apex, *scene.base_region()]]))
+    if _is_mirror_symmetric(scene):
+        s_right = _boundary_arc_lengths(landmarks, 0.0, s_apex, h)
+        right = o.evaluate(s_right)[0]
+        right[0, 0] = 0.0
+        apex = o.evaluate(s_apex)[0][0]
+        apex[0] = 0.0
+        bond = _bond_points(scene, np.append(s_right, s_apex))
+        H = apex[1]
+        y_sym = np.concatenate([_spaced(H, H - lever, h), _spaced(H - lever, lever, h),
+                                _spaced(lever, 0.0, h)])[1:]
+        sym = np.column_stack([np.zeros_like(y_sym), y_sym])  # apex side down to y > 0
+        loop = np.vstack([right, apex, sym])
+        nl = len(loop)
+        i_top = len(right) + 1 + int(np.argmin(np.abs(y_sym - (H - lever))))
+        i_bottom = len(right) + 1 + int(np.argmin(np.abs(y_sym - lever)))
+        chain = np.concatenate([[i_bottom], nl + np.arange(len(right) - 1), [i_top]])
+        verts, tris = _triangulate(np.vstack([loop, bond[1:-1]]), nl,
+                                   np.column_stack([chain[:-1], chain[1:]]), h)
+        on_axis = np.abs(verts[:, 0]) < 1e-9 * o.side_length
+        verts[on_axis, 0] = 0.0
+        mirror_id = np.arange(len(verts))
+        off = np.flatnonzero(~on_axis)
+        mirror_id[off] = len(verts) + np.arange(off.size)
+        verts = np.vstack([verts, verts[off] * [-1.0, 1.0]])
+        tris = np.vstack([tris, mirror_id[tris][:, ::-1]])
+        # boundary: right half 0..len(right) (apex), then the mirrored right half, reversed
+        b_right = np.arange(len(right) + 1)
+        b_left = mirror_id[np.arange(1, len(right))][::-1]
+        s_b = _snap(np.concatenate([np.append(s_right, s_apex), (L - s_right[1:])[::-1]]), landmarks, L)
+        bond_b = np.concatenate([chain, mirror_id[chain[1:-1]][::-1]])
+        return verts, tris, np.concatenate([b_right, b_left]), s_b, bond_b
+    s = _boundary_arc_lengths(landmarks, 0.0, L, h)
+    m = s.size
+    ring = m + np.arange(m)
+    verts, tris = _triangulate(np.vstack([o.evaluate(s)[0], _bond_points(scene, s)]), m,
+                               np.column_stack([ring, np.roll(ring, -1)]), h)
+    return verts, tris, np.arange(m), s, ring
+
+
+def _refine(verts: np.ndarray, tris: np.ndarray) -> tuple[np.ndarray, np.ndarray, dict]:
+    """Split every triangle into four at its edge midpoints. Returns the new vertices, triangles
+    and the map (a, b) -> midpoint vertex of every old edge (a < b)."""
+    nv = len(verts)
+    pairs = np.sort(np.vstack([tris[:, [0, 1]], tris[:, [1, 2]], tris[:, [2, 0]]]), axis=1)
+    edges, inverse = np.unique(pairs, axis=0, return_inverse=True)
+    mid = nv + inverse.reshape(3, -1).T  # (nt, 3): midpoints of edges 01, 12, 20
+    a, b, c = tris.T
+    m01, m12, m20 = mid.T
+    fine = np.vstack([np.column_stack([a, m01, m20]), np.column_stack([m01, b, m12]),
+                      np.column_stack([m20, m12, c]), np.column_stack([m01, m12, m20])])
+    new = np.vstack([verts, 0.5 * (verts[edges[:, 0]] + verts[edges[:, 1]])])
+    return new, fine, {(int(p), int(q)): nv + k for k, (p, q) in enumerate(edges)}
+
+
+def membrane_mesh(scene: Scene, refinement: int = 0) -> TriangleMesh:
+    """The membrane mesh of ``scene`` at ``refinement`` (element size halved that many times).
+
+    Raises
+    ------
+    SceneError
+        If ``refinement`` is not a whole number >= 0.
+    """
+    if isinstance(refinement, bool) or not isinstance(refinement, (int, np.integer)) or refinement < 0:
+        raise SceneError(f"fem.refinement = {refinement!r} must be a whole number >= 0")
+    o = scene.outline
+    L = o.length
+    verts, tris, b_ids, b_s, b_bond = _base_mesh(scene)
+    for _ in range(int(refinement)):
+        verts, tris, midpoint = _refine(verts, tris)
+        ring = np.roll(b_ids, -1)
+        new_ids = np.array([midpoint[(min(p, q), max(p, q))] for p, q in zip(b_ids, ring)])
+        new_bond = np.array([midpoint[(min(p, q), max(p, q))] for p, q in zip(b_bond, np.roll(b_bond, -1))])
+        s_mid = mid_arc_length(b_s, np.roll(b_s, -1), L)
+        verts[new_ids] = o.evaluate(s_mid)[0]
+        b_ids = np.column_stack([b_ids, new_ids]).ravel()
+        b_s = np.column_stack([b_s, s_mid]).ravel()
+        b_bond = np.column_stack([b_bond, new_bond]).ravel()
+    # counter-clockwise seen from +z, so that element normals point up in the flat state
+    p = verts[tris]
+    e1, e2 = p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]
+    flip = e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0] < 0
+    tris[flip] = tris[flip][:, ::-1]
+    order = np.argsort(b_s)
+    return TriangleMesh(
+        nodes=verts,
+        triangles=tris.astype(np.int64),
+        frame_nodes=b_ids[order].astype(np.int64),
+        frame_s=b_s[order],
+        bond_nodes=b_bond[order].astype(np.int64),
+        spacing=scene.spacing / 2 ** int(refinement),
+    )

@@ -1,0 +1,104 @@
+"""DR membrane triangles and the FEM's discrete rod: exact gradients, and one discrete energy.
+
+The DR triangle and rod elements are checked against finite differences of their own energies,
+then against the FEM reference term by term (the same mesh, law, rod, bond and supports give
+the same energy at any state), and finally the two solvers' equilibria against each other.
+"""
+
+import numpy as np
+import pytest
+
+import dr
+import fem_reference
+import scenes
+from dr.kernels import energy
+from fem_reference.model import DemesProblem
+from scenes.mesh import membrane_mesh
+from test_dr_elements import fd_gradient, kernel_gradient
+
+
+@pytest.mark.parametrize("law, tension_only", [("linear", True), ("linear", False), ("neo-hookean", False)])
+def test_triangle_forces_are_the_gradient_of_its_energy(law, tension_only):
+    nodes = np.array([[0, 0, 0], [10, 0, 0], [5, 8, 0], [15, 8, 0], [-3, 7, 0]], float)
+    m = dr.Model(nodes)
+    m.support([0])
+    m.add_triangles([[0, 1, 2], [1, 3, 2], [0, 2, 4]], E=1.0, thickness=0.05, prestretch=1.3,
+                    law=law, tension_only=tension_only)
+    x = nodes + np.random.default_rng(0).normal(scale=1.0, size=nodes.shape)
+    g = kernel_gradient(m, x)
+    assert np.abs(g).max() > 1e-3
+    np.testing.assert_allclose(g, fd_gradient(m, x), atol=1e-7 * np.abs(g).max())
+
+
+@pytest.mark.parametrize("strip", [True, False])
+@pytest.mark.parametrize("closed", [True, False])
+def test_rod_forces_are_the_gradient_of_its_energy(strip, closed):
+    k = 9
+    angle = np.linspace(0.0, 2 * np.pi, k, endpoint=False)
+    ring = np.stack([np.cos(angle), np.sin(angle), np.zeros(k)], axis=1)
+    nodes = np.vstack([10 * ring, 8 * ring])
+    m = dr.Model(nodes)
+    m.support([0, 1, 2])  # two held edges: their frames stay flat
+    extra = dict(EI_strong=30.0, GJ=2.0, bond=np.arange(k, 2 * k)) if strip else {}
+    m.add_rod(np.arange(k), EA=100.0, EI=1.5, closed=closed, **extra)
+    x = nodes + np.random.default_rng(1).normal(scale=0.5, size=nodes.shape)
+    x[:3] = nodes[:3]
+    g = kernel_gradient(m, x)
+    np.testing.assert_allclose(g, fd_gradient(m, x), atol=1e-7 * np.abs(g).max())
+
+
+def _coarse(model: str, law: str = "linear", **changes) -> scenes.Scene:
+    return scenes.paper_demes(prestretch=1.3, frame_model=model, **{
+        "dr.membrane_net": "triangles", "mesh.divisions": 8, "membrane.law": law, **changes})
+
+
+@pytest.mark.parametrize("model, law", [("strip", "linear"), ("paper", "linear"), ("strip", "neo-hookean")])
+def test_dr_triangles_and_fem_have_one_energy(model, law):
+    """At an arbitrary state the DR model and the FEM problem store the same energy, part by
+    part: the same mesh, membrane law, rod, bond and supports."""
+    scene = _coarse(model, law, **{"frame.bond_lever": 1.5})
+    dm = dr.build(scene)
+    pb = DemesProblem(scene, 0, "P1")
+    np.testing.assert_allclose(dm.model.nodes, pb.X, atol=1e-12)
+    np.testing.assert_array_equal(dm.model.fixed.all(axis=1), pb.held)
+    x = pb.X + np.random.default_rng(2).normal(scale=0.2, size=pb.X.shape)
+    x[pb.held] = pb.X[pb.held]
+    fem = pb.evaluate(x.ravel(), 1).parts
+    P = dm.model.pack()
+    X = np.zeros((P.n_total, 3))
+    X[: P.n] = x
+    mem, bend, twist, axial = energy(X, P)
+    for name, value in (("membrane", mem), ("frame_bending", bend), ("frame_torsion", twist),
+                        ("frame_axial", axial)):
+        assert value == pytest.approx(fem[name], rel=1e-12, abs=1e-12), name
+
+
+def test_the_mesh_is_shared_and_bond_nodes_sit_at_the_lever():
+    scene = _coarse("strip", **{"frame.bond_lever": 1.5})
+    for k in (0, 1):
+        mesh = membrane_mesh(scene, k)
+        fem = fem_reference.mesh.build_mesh(scene, k)
+        np.testing.assert_allclose(mesh.nodes, fem.nodes, atol=1e-12)
+        np.testing.assert_array_equal(mesh.frame_nodes, fem.frame_nodes)
+        np.testing.assert_allclose(mesh.frame_bond, fem.frame_inner, atol=1e-12)
+    # on the coarse mesh every bond node lies at the lever; refined ones halve its chords
+    coarse = membrane_mesh(scene, 0)
+    np.testing.assert_allclose(scene.outline.distance(coarse.frame_bond), 1.5, atol=1e-9)
+    assert np.isin(coarse.bond_nodes, mesh.bond_nodes).all()
+
+
+@pytest.mark.slow
+def test_dr_triangles_and_fem_find_the_same_states():
+    """Refinement 0 at 110, 130 and 150 %: the two solvers minimise one discrete energy, so
+    their states agree to the solvers' tolerances (coarse mesh: the test budget)."""
+    scene = _coarse("strip")
+    side = scene.outline.side_length
+    lams = [1.1, 1.3, 1.5]
+    pairs = zip(dr.sweep(scene, lams), fem_reference.sweep(scene, lams, refinement=0))
+    for d, f in pairs:
+        assert d.converged and f.converged, (d.message, f.message)
+        gap = d.x[d.frame_nodes] - f.x[f.frame_nodes]
+        assert np.sqrt(np.mean(np.sum(gap**2, axis=1))) <= 1e-4 * side
+        assert abs(d.bending_angle - f.bending_angle) <= 0.05
+        assert d.energy["total"] == pytest.approx(f.energy["total"], rel=1e-5)
+        assert f.bending_angle > 30.0  # a curled state, not the flat one
