@@ -148,7 +148,7 @@ def build(scene: Scene, prestretch: float | None = None) -> DemesModel:
 
 def paper_formula_membrane_energy(model: Model, x: np.ndarray) -> float:
     """The membrane energy by the paper's formula, sum of N eps L / 2 over the membrane's links
-    and cables with the *current* length L (N mm; ``results.ENERGY_KEYS`` has the definitions).
+    and cables with the *current* length L (N mm; ``results.ENERGY_DEFINITION`` defines both).
 
     The exact energy of a Hookean element is N eps L0 / 2; the formula is larger by L / L0,
     about the pre-stretch. Reported beside the exact energy so the energies can be read

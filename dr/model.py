@@ -282,6 +282,13 @@ class Model:
         n_edges = c.size if closed else c.size - 1
         nxt = np.roll(c, -1)[:n_edges]
         self._rest_lengths("beam edge", c[:n_edges], nxt, None)
+        ends = (np.roll(c, 1), np.roll(c, -1)) if closed else (c[:-2], c[2:])
+        x = self._ref_positions()
+        folded = np.flatnonzero(np.linalg.norm(x[ends[1]] - x[ends[0]], axis=1) == 0.0)
+        if folded.size:
+            k = folded[0]
+            raise DRError(f"beam chain folds back on itself: nodes {ends[0][k]} and {ends[1][k]} on either side of "
+                          "a node coincide (no curvature is defined there); move them apart")
         orient = None
         if orientation is not None:
             orient = self._indices("beam orientation", orientation, True)

@@ -134,10 +134,10 @@ def relax(
         X[:n] = xs
     free = (~model.fixed).astype(float)
     loads = model.loads
+    positions = "start" if x_start is not None else "reference"
     degenerate = degenerate_elements(X, P)
     if degenerate:
-        raise DRError(f"the {'start' if x_start is not None else 'reference'} positions are degenerate: "
-                      f"{'; '.join(degenerate)}; move the nodes apart")
+        raise DRError(f"the {positions} positions are degenerate: {'; '.join(degenerate)}; move the nodes apart")
     watched = np.zeros(n, dtype=bool)
     segments, closed, distance = np.zeros((0, 2), np.int64), False, 0.0
     if contact is not None:
@@ -147,8 +147,8 @@ def relax(
     _update_masses(st, P, mass_safety)
     if not (np.isfinite(st.R).all() and np.isfinite(st.Minv).all()):
         raise DRError(
-            f"the {'start' if x_start is not None else 'reference'} positions give no finite force: at "
-            f"{where_not_finite(X, st.R, P)}; move the nodes apart"
+            f"the {positions} positions give a non-finite force or mass, first at {where_not_finite(X, st.R, P)}; "
+            "look for coincident nodes or stiffnesses so large that they overflow"
         )
     runaway = max(float(np.linalg.norm(np.ptp(X[:n], axis=0))), 1e-9)
     cfg = itg.Settings(
@@ -164,8 +164,8 @@ def relax(
         """Why the run is unstable (energy rising), or None."""
         e_now = _potential_energy(X, P, loads)
         rise = e_now - e_start
-        if np.isfinite(rise) and rise <= ENERGY_RISE * max(abs(e_start), abs(e_now), 1e-300):
-            return None
+        if not np.isfinite(rise) or rise <= ENERGY_RISE * max(abs(e_start), abs(e_now), 1e-300):
+            return None  # a NaN energy is named 'not_finite' when the result is made
         return (f"the energy rose from {e_start:.4g} to {e_now:.4g} N mm, which damping cannot do: "
                 f"the time step is unstable with mass_safety = {mass_safety:g}; raise it (f >= 1 is "
                 "stable, 2 is safe)")

@@ -70,7 +70,11 @@ class MembraneMesh:
         """Sparse (m, nn) matrices of the shape-function values (and, with ``gradients``, their
         x and y derivatives) at reference points (m, 2) mm, optionally in given cells."""
         if cells is None:
-            cells = self.linear.element_finder()(points[:, 0], points[:, 1])
+            try:
+                cells = self.linear.element_finder()(points[:, 0], points[:, 1])
+            except ValueError:  # skfem: 'Point is outside of the mesh'
+                raise FEMError("a point of the strip's inner edge falls outside the film mesh: a corner is "
+                               "too sharp for the mesh; raise frame.corner_radius or mesh.divisions") from None
         scalar = Basis(self.mesh, ELEMENTS[self.element]())
         local = scalar.mapping.invF(points.T[:, :, None], tind=cells)
         fields = [scalar.elem.gbasis(scalar.mapping, local, k, tind=cells)[0]

@@ -78,7 +78,8 @@ def load(source: str | Path) -> Scene:
         found = path.is_file()
         size = path.stat().st_size if found else 0
     except (OSError, ValueError) as exc:  # a name too long, a NUL in it, ...
-        raise SceneError(f"scene file {str(source)[:80]!r} cannot be read: {exc}") from None
+        why = exc.strerror if isinstance(exc, OSError) and exc.strerror else str(exc)
+        raise SceneError(f"scene file {str(source)[:80]!r} cannot be read: {why}") from None
     if not found:
         raise SceneError(
             f"scene file {str(source)[:200]!r} not found (or not a file); give a path to a .toml file "
@@ -95,7 +96,7 @@ def load(source: str | Path) -> Scene:
     except RecursionError:
         raise SceneError(f"{path}: not a scene: its tables or arrays are nested too deeply") from None
     except OSError as exc:
-        raise SceneError(f"{path}: cannot be read: {exc}") from None
+        raise SceneError(f"{path}: cannot be read: {exc.strerror or exc}") from None
     data.setdefault("name", path.stem)
     return Scene.from_dict(data)
 

@@ -83,7 +83,7 @@ class Outline:
         k = len(v)
         sides = np.roll(v, -1, axis=0) - v
         side_len = np.linalg.norm(sides, axis=1)
-        if np.any(side_len < 1e-9 * side_len.max()):
+        if np.any(side_len <= 1e-9 * side_len.max()):
             raise SceneError("frame.vertices has repeated points: every side needs a length")
         if self._self_intersects(v):
             raise SceneError("frame.vertices do not form a simple closed polygon: sides cross")

@@ -75,12 +75,36 @@ def _boundary_arc_lengths(landmarks: np.ndarray, start: float, stop: float, h: f
     return np.concatenate(parts)
 
 
+def _check_plane_graph(points: np.ndarray, loop: int, segments: np.ndarray) -> None:
+    """Refuse what the mesh generator cannot take (it may crash on it): interior points outside
+    the outline, or segments that cross or touch other than at a shared end. Where the frame
+    is narrower than the strip, the strip's inner edge crosses itself or the outline."""
+    inside = MplPath(points[:loop]).contains_points(points[loop:])
+    a, b = points[segments[:, 0]], points[segments[:, 1]]
+    reach = float(np.linalg.norm(b - a, axis=1).max())
+    pairs = cKDTree(0.5 * (a + b)).query_pairs(reach, output_type="ndarray")
+    i, j = pairs[:, 0], pairs[:, 1]
+    apart = ~(segments[i][:, :, None] == segments[j][:, None, :]).any(axis=(1, 2))
+    i, j = i[apart], j[apart]
+
+    def side(p, q, r):  # sign of the turn p -> q -> r
+        return np.sign((q[:, 0] - p[:, 0]) * (r[:, 1] - p[:, 1]) - (q[:, 1] - p[:, 1]) * (r[:, 0] - p[:, 0]))
+
+    cross = ((side(a[i], b[i], a[j]) * side(a[i], b[i], b[j]) <= 0)
+             & (side(a[j], b[j], a[i]) * side(a[j], b[j], b[i]) <= 0))
+    if not inside.all() or cross.any():
+        raise SceneError("the strip's inner edge (frame.width / 2 inside the outline) leaves the outline or "
+                         "crosses itself: the frame is too narrow or too sharply bent for its strip; widen the "
+                         "outline, raise frame.corner_radius or lower frame.width")
+
+
 def _triangulate(points: np.ndarray, loop: int, extra_segments: np.ndarray, h: float
                  ) -> tuple[np.ndarray, np.ndarray]:
     """Triangles of the closed polygon ``points[:loop]`` with further points and interior
     segments (the bond line) that every mesh must follow; no new points on any segment."""
     segments = np.vstack([np.column_stack([np.arange(loop), np.roll(np.arange(loop), -1)]),
                           extra_segments]).astype(np.int32)
+    _check_plane_graph(points, loop, segments)
     area = np.sqrt(3.0) / 4.0 * h * h
     out = tr.triangulate({"vertices": points, "segments": segments}, f"pq30a{area:.10f}YY")
     if not np.allclose(out["vertices"][: len(points)], points):

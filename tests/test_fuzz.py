@@ -25,7 +25,7 @@ from validation.cli import main
 QUIET = [HealthCheck.too_slow, HealthCheck.function_scoped_fixture, HealthCheck.filter_too_much]
 settings.register_profile("ci", max_examples=25, deadline=None, derandomize=True, database=None,
                           suppress_health_check=QUIET, phases=[Phase.explicit, Phase.generate, Phase.shrink])
-settings.register_profile("long", max_examples=1500, deadline=None, database=None, suppress_health_check=QUIET)
+settings.register_profile("long", max_examples=500, deadline=None, database=None, suppress_health_check=QUIET)
 settings.load_profile("long" if os.environ.get("DEMES_FUZZ") == "long" else "ci")
 
 NAMED_STATUSES = {"converged", "max_iterations", "diverged", "not_finite", "self_contact",

@@ -113,8 +113,8 @@ def execute(run: Run, scene_data: dict[str, Any], out_dir: str) -> dict[str, Any
             save_result(state_path(run_dir, res.prestretch), res)
             res.write_vtk(run_dir / f"{run.label}_{res.prestretch:.3f}.vtu")
             states[state_key(res, run.prestretches)] = res
-    except scenes.SceneError as exc:
-        record["error"] = f"scene error: {exc}"
+    except scenes.DemesError as exc:  # bad input for this run: named, no traceback
+        record["error"] = f"{'scene error' if isinstance(exc, scenes.SceneError) else 'refused'}: {exc}"
     except Exception as exc:  # a solver failure is a result of the validation, not its end
         record["error"] = f"{type(exc).__name__}: {exc}"
         record["traceback"] = traceback.format_exc(limit=4)
