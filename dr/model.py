@@ -21,7 +21,10 @@ import numpy as np
 from .errors import DRError
 from . import rod as rod_element
 from . import triangles as tri_element
-from .kernels import EIS, EIW, GJ, KB, KN0, KT, KW0, LBAR, TAU0, Packed, node_frame, place_virtual, strip_measures
+from .beams import curvatures
+from .frames import node_frame
+from .kernels import Packed, place_virtual
+from .strips import EIS, EIW, GJ, KB, KN0, KT, KW0, LBAR, TAU0, strip_measures
 
 
 def _positive(name: str, value: float) -> float:
@@ -567,11 +570,8 @@ class Model:
         place_virtual(X, P._replace(ghost_t=rest_t))
         if beam_rows:
             s, i, f = P.beam_idx.T
-            a, bb = X[i] - X[s], X[f] - X[i]
-            la, lb = np.linalg.norm(a, axis=1), np.linalg.norm(bb, axis=1)
-            lc = np.linalg.norm(X[f] - X[s], axis=1)
-            P.beam_k0[:] = 2 * np.linalg.norm(np.cross(a, bb), axis=1) / (la * lb * lc)
-            P.beam_l[:] = 0.5 * (la + lb)
+            P.beam_k0[:] = curvatures(X, P.beam_idx)
+            P.beam_l[:] = 0.5 * (np.linalg.norm(X[i] - X[s], axis=1) + np.linalg.norm(X[f] - X[i], axis=1))
         if strip_rows:
             idx = P.strip_idx
             la = np.linalg.norm(X[idx[:, 1]] - X[idx[:, 0]], axis=1)

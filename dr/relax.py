@@ -13,9 +13,11 @@ from results import CellBlock, Result
 from . import integrator as itg
 from .contact import FrameContact
 from .errors import DRError
+from .beams import curvatures
 from .damping import SCHEMES
 from .finite import degenerate_elements, where_not_finite
-from .kernels import EIW, KN0, KW0, LBAR, TAU0, Packed, energy, place_virtual, stiffness, strip_measures
+from .kernels import Packed, energy, place_virtual, stiffness
+from .strips import EIW, KN0, KW0, LBAR, TAU0, strip_measures
 from .model import Model
 
 Check = Callable[[np.ndarray], "str | None"]
@@ -290,11 +292,8 @@ def element_forces(model: Model, P: Packed, X: np.ndarray) -> dict[str, np.ndarr
     out["cluster_tension"] = np.where(P.clu_tension_only & (tc < 0), 0.0, tc)
     moment = np.zeros(P.n)
     if P.beam_idx.size:
-        s, b, f = P.beam_idx.T
-        a, c = X[b] - X[s], X[f] - X[b]
-        kap = 2 * np.linalg.norm(np.cross(a, c), axis=1) / (
-            np.linalg.norm(a, axis=1) * np.linalg.norm(c, axis=1) * np.linalg.norm(X[f] - X[s], axis=1)
-        )
+        b = P.beam_idx[:, 1]
+        kap = curvatures(X, P.beam_idx)
         np.add.at(moment, b[b < P.n], (P.beam_EI * (kap - P.beam_k0))[b < P.n])
     if P.strip_idx.size:
         meas = strip_measures(X, P.strip_idx)

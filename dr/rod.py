@@ -22,6 +22,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from .blocks import add_rotated, frame_blocks, gershgorin
 from .vec import add, add_to, axpy, cross, dot, get, norm, scale, sub, unit_vjp
 
 STRIP, PAPER = 0, 1
@@ -168,6 +169,62 @@ def rod_hessian(xl, idx, par, H):
             for rr in range(ROWS):
                 for cc in range(3):
                     H[3 * rr + cc, 3 * r + c] = (gp[rr, cc] - gm[rr, cc]) / (2.0 * h)
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def gradient(X, P, G, D):
+    """Add all rod vertices' energy gradient to G and, if D has rows, the strip rod's mass
+    blocks turned with each vertex's material frame. Returns the largest nodal force, N."""
+    if P.rod_idx.shape[0] == 0:
+        return 0.0  # no scratch arrays for a model without this element
+    xl = np.zeros((ROWS, 3))
+    gl = np.zeros((ROWS, 3))
+    fmax = 0.0
+    for k in range(P.rod_idx.shape[0]):
+        idx = P.rod_idx[k]
+        gather(X, idx, xl)
+        gl[:] = 0.0
+        _, _, frame, _ = rod_local(xl, P.rod_par[k], gl, True)
+        turn = D.shape[0] > 0 and P.rod_par[k, MODEL] == STRIP
+        for r in range(ROWS):
+            if idx[r] >= 0:
+                add_to(G, idx[r], get(gl, r), 1.0)
+                if turn:
+                    add_rotated(D, idx[r], P.rod_blocks[k, r], frame)
+        for r in range(3):
+            fmax = max(fmax, norm(get(gl, r)))
+    return fmax
+
+
+@njit(cache=True, error_model="numpy")
+def energy(X, P):
+    """Bending and torsion energy of all rod vertices, N mm."""
+    xl = np.zeros((ROWS, 3))
+    e_bend = e_twist = 0.0
+    for k in range(P.rod_idx.shape[0]):
+        gather(X, P.rod_idx[k], xl)
+        eb, et, _, _ = rod_local(xl, P.rod_par[k], xl, False)
+        e_bend += eb
+        e_twist += et
+    return e_bend, e_twist
+
+
+@njit(cache=True, error_model="numpy")
+def stiffness(X, P, S, with_links):
+    """Gershgorin row sums of each vertex term's Hessian into S (scalar masses, and the
+    isotropic rod always), or else the strip rod's blocks in its material frame into
+    P.rod_blocks for :func:`gradient` to turn."""
+    xl = np.zeros((ROWS, 3))
+    H = np.zeros((3 * ROWS, 3 * ROWS))
+    for k in range(P.rod_idx.shape[0]):
+        idx = P.rod_idx[k]
+        gather(X, idx, xl)
+        rod_hessian(xl, idx, P.rod_par[k], H)
+        if with_links or P.rod_par[k, MODEL] == PAPER:
+            gershgorin(H, idx, S)
+        else:
+            _, _, frame, _ = rod_local(xl, P.rod_par[k], xl, False)
+            frame_blocks(H, idx >= 0, frame, P.rod_blocks[k])
 
 
 def rod_rows(chain: np.ndarray, bond: np.ndarray | None, closed: bool) -> np.ndarray:

@@ -24,6 +24,7 @@ import math
 import numpy as np
 from numba import njit
 
+from .blocks import add_block
 from .vec import add_to, get, norm, scale
 
 LINEAR, NEO_HOOKEAN = 0, 1
@@ -136,36 +137,26 @@ def triangle_gradient(X, idx, gN, par, G, D, xl, gl):
     blocks (linear law). xl, gl: (3, 3) scratch. Returns the largest nodal force, N."""
     _gather(X, idx, xl)
     gl[:] = 0.0
-    triangle_local(xl, gN, par, gl, True)
+    if par[LAW] == NEO_HOOKEAN:
+        triangle_local(xl, gN, par, gl, True)
+    else:  # one pass over the families for the forces and the blocks
+        k_axial = par[AREA] * par[EH] * par[LAM]
+        for k in range(3):
+            f, c = _family(xl, gN, k)
+            lf = norm(f)
+            force = par[AREA] * par[EH] * _strain(par, lf)  # d(energy)/d|f|, N mm
+            e = scale(f, 1.0 / lf)
+            csum = abs(c[0]) + abs(c[1]) + abs(c[2])
+            for a in range(3):
+                add_to(gl, a, e, force * c[a])
+                if D.shape[0] > 0:
+                    w = abs(c[a]) * csum
+                    add_block(D, idx[a], e, w * k_axial, w * abs(force) / lf)
     fmax = 0.0
     for a in range(3):
         add_to(G, idx[a], get(gl, a), 1.0)
         fmax = max(fmax, norm(get(gl, a)))
-    if D.shape[0] == 0 or par[LAW] == NEO_HOOKEAN:
-        return fmax
-    k_axial = par[AREA] * par[EH] * par[LAM]
-    for k in range(3):
-        f, c = _family(xl, gN, k)
-        lf = norm(f)
-        e = scale(f, 1.0 / lf)
-        k_geo = abs(par[AREA] * par[EH] * _strain(par, lf)) / lf
-        csum = abs(c[0]) + abs(c[1]) + abs(c[2])
-        for a in range(3):
-            w = abs(c[a]) * csum
-            _add_block(D, idx[a], e, w * k_axial, w * k_geo)
     return fmax
-
-
-@njit(cache=True, error_model="numpy", inline="always")
-def _add_block(D, i, e, k_axial, k_geo):
-    """D[i] += k_axial e e^T + k_geo (I - e e^T); D rows are xx yy zz xy xz yz."""
-    kd = k_axial - k_geo
-    D[i, 0] += kd * e[0] * e[0] + k_geo
-    D[i, 1] += kd * e[1] * e[1] + k_geo
-    D[i, 2] += kd * e[2] * e[2] + k_geo
-    D[i, 3] += kd * e[0] * e[1]
-    D[i, 4] += kd * e[0] * e[2]
-    D[i, 5] += kd * e[1] * e[2]
 
 
 @njit(cache=True, error_model="numpy")
@@ -211,3 +202,36 @@ def triangle_stiffness(X, idx, gN, par, S, with_links, xl):
         csum = abs(c[0]) + abs(c[1]) + abs(c[2])
         for a in range(3):
             S[idx[a]] += abs(c[a]) * csum * (k_axial + k_geo)
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def gradient(X, P, G, D):
+    """Add all triangles' energy gradient (and blocks) to G (and D). Returns the largest
+    nodal force, N."""
+    if P.tri_idx.shape[0] == 0:
+        return 0.0  # no scratch arrays for a model without this element
+    xl = np.zeros((3, 3))
+    gl = np.zeros((3, 3))
+    fmax = 0.0
+    for k in range(P.tri_idx.shape[0]):
+        fmax = max(fmax, triangle_gradient(X, P.tri_idx[k], P.tri_grad[k], P.tri_par[k], G, D, xl, gl))
+    return fmax
+
+
+@njit(cache=True, error_model="numpy")
+def energy(X, P):
+    """Strain energy of all triangles, N mm."""
+    xl = np.zeros((3, 3))
+    e = 0.0
+    for k in range(P.tri_idx.shape[0]):
+        _gather(X, P.tri_idx[k], xl)
+        e += triangle_local(xl, P.tri_grad[k], P.tri_par[k], xl, False)
+    return e
+
+
+@njit(cache=True, error_model="numpy")
+def stiffness(X, P, S, with_links):
+    """Per-node bounds of all triangles into S (see :func:`triangle_stiffness`)."""
+    xl = np.zeros((3, 3))
+    for k in range(P.tri_idx.shape[0]):
+        triangle_stiffness(X, P.tri_idx[k], P.tri_grad[k], P.tri_par[k], S, with_links, xl)

@@ -88,7 +88,7 @@ def test_isotropic_beam_with_offsets_is_consistent_where_it_has_an_energy():
 def test_each_part_of_the_strip_energy_has_its_exact_gradient(part):
     """Per energy part, on random bent and twisted node geometries, so that a small but wrong
     term cannot hide behind a large right one."""
-    from dr.kernels import EIS, EIW, GJ, KB, KT, strip_local
+    from dr.strips import EIS, EIW, GJ, KB, KT, strip_local
 
     column = {"weak": EIW, "strong": EIS, "twist": GJ}[part]
     rng = np.random.default_rng(5)

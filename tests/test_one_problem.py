@@ -102,3 +102,12 @@ def test_dr_triangles_and_fem_find_the_same_states():
         assert abs(d.bending_angle - f.bending_angle) <= 0.05
         assert d.energy["total"] == pytest.approx(f.energy["total"], rel=1e-5)
         assert f.bending_angle > 30.0  # a curled state, not the flat one
+
+
+def test_bad_bond_and_unsupported_offset_are_named():
+    with pytest.raises(scenes.SceneError, match="frame.bond_lever"):
+        scenes.paper_demes(**{"frame.bond_lever": 5.0})
+    with pytest.raises(scenes.SceneError, match="frame.bond_lever"):
+        scenes.paper_demes(**{"frame.bond_lever": 0.0})
+    with pytest.raises(scenes.SceneError, match="film_offset"):
+        dr.build(_coarse("strip", **{"frame.film_offset": True}))

@@ -18,7 +18,7 @@ from .analysis import THRESHOLDS, Analysis  # noqa: E402
 
 STYLE = {
     "dr_paper": dict(color="tab:red", marker="s", label="DR, paper's model (clustered, Table I frame)"),
-    "dr_matched": dict(color="tab:blue", marker="o", label="DR, matched (link net, strip)"),
+    "dr_matched": dict(color="tab:blue", marker="o", label="DR, matched (triangles, strip)"),
     "dr_clustered_strip": dict(color="tab:purple", marker="^", label="DR, clustered net, strip"),
     "reference": dict(color="k", marker="D", label="FEM reference (extrapolated)"),
 }

@@ -1,0 +1,68 @@
+"""DR element: links (bars or cables), T = EA/L0 (L - L0), tension-only if asked."""
+
+from __future__ import annotations
+
+from numba import njit
+
+from .blocks import add_block
+from .vec import add_to, get, norm, scale, sub
+
+
+@njit(cache=True, error_model="numpy")
+def tension(EA, L0, L, tension_only):
+    """Axial force (N) at length L (mm); a slack tension-only element carries none."""
+    t = EA / L0 * (L - L0)
+    if tension_only and t < 0.0:
+        return 0.0
+    return t
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def gradient(X, P, G, D):
+    """Add the links' energy gradient to G and, if D has rows, each link end's exact block
+    EA/L0 e e^T + |T|/L (I - e e^T) (a link's stiffness is at most twice its block diagonal).
+    Returns the largest link force, N."""
+    fmax = 0.0
+    for k in range(P.link_ij.shape[0]):
+        i, j = P.link_ij[k, 0], P.link_ij[k, 1]
+        d = sub(get(X, j), get(X, i))
+        L = norm(d)
+        t = tension(P.link_EA[k], P.link_L0[k], L, P.link_tension_only[k])
+        fmax = max(fmax, abs(t))
+        add_to(G, i, d, -t / L)
+        add_to(G, j, d, t / L)
+        if D.shape[0] > 0:
+            e = scale(d, 1.0 / L)
+            ka, kg = P.link_EA[k] / P.link_L0[k], abs(t) / L
+            add_block(D, i, e, ka, kg)
+            add_block(D, j, e, ka, kg)
+    return fmax
+
+
+@njit(cache=True, error_model="numpy")
+def energy(X, P):
+    """Strain energy (membrane links, frame links), N mm: N eps L0 / 2 each."""
+    e_mem = e_frame = 0.0
+    for k in range(P.link_ij.shape[0]):
+        L = norm(sub(get(X, P.link_ij[k, 1]), get(X, P.link_ij[k, 0])))
+        t = tension(P.link_EA[k], P.link_L0[k], L, P.link_tension_only[k])
+        e = 0.5 * t * t * P.link_L0[k] / P.link_EA[k]
+        if P.link_frame[k]:
+            e_frame += e
+        else:
+            e_mem += e
+    return e_mem, e_frame
+
+
+@njit(cache=True, error_model="numpy")
+def stiffness(X, P, S, with_links):
+    """Scalar bound EA/L0 + |T|/L per link end (Barnes), for scalar masses (``with_links``)."""
+    if not with_links:
+        return
+    for k in range(P.link_ij.shape[0]):
+        i, j = P.link_ij[k, 0], P.link_ij[k, 1]
+        L = norm(sub(get(X, j), get(X, i)))
+        t = tension(P.link_EA[k], P.link_L0[k], L, P.link_tension_only[k])
+        kk = P.link_EA[k] / P.link_L0[k] + abs(t) / L
+        S[i] += kk
+        S[j] += kk
