@@ -154,7 +154,8 @@ def paper_formula_membrane_energy(model: Model, x: np.ndarray) -> float:
     about the pre-stretch. Reported beside the exact energy so the energies can be read
     against the paper's."""
     P = model.pack()
-    X = np.vstack([x, np.zeros((P.off_geo.shape[0] + P.ghost_src.shape[0], 3))])
+    X = np.zeros((P.n_total, 3))  # with room for every virtual node (bond points, offsets, ghosts)
+    X[: P.n] = x
     place_virtual(X, P)
     mem = ~P.link_frame
     i, j = P.link_ij[mem].T
