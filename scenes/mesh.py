@@ -17,6 +17,8 @@ from dataclasses import dataclass
 
 import numpy as np
 import triangle as tr
+from matplotlib.path import Path as MplPath
+from scipy.spatial import cKDTree
 
 from .errors import SceneError
 from .scene import Scene
