@@ -324,7 +324,7 @@ def solve(scene: Scene, prestretch: float | None = None, x_start: np.ndarray | N
             dm.model, tol=st.tolerance if (last or near_flat) else max(st.step_tolerance, st.tolerance),
             mass_safety=st.mass_safety, max_iterations=st.max_iterations, x_start=x_start,
             contact=dm.contact, final_checks=dm.final_checks, progress=progress and last,
-            force_scale=force_scale,
+            force_scale=force_scale, damping=st.damping,
         )
         iterations += res.iterations
         wall += res.wall_time

@@ -1,28 +1,74 @@
-"""Leapfrog time stepping with kinetic damping (Barnes), compiled; dt = 1, masses scaled to it.
+"""Leapfrog time stepping with a damping scheme (``dr.damping``), compiled; dt = 1, masses
+scaled to it. The loop works on a named :class:`State` (arrays, changed in place) with named
+:class:`Settings`.
 
 Masses are symmetric 3x3 per node, stored as (xx, yy, zz, xy, xz, yz). With ``tensor`` masses
 they are built from the direction-dependent stiffness of links and cables (EA/L0 e e^T along,
 T/L across) plus an isotropic part for beams; a frame node is then heavy only along the frame,
 not across it, which is what limits the step count. They are rebuilt every step: a light
 frame node moving across its links turns them by degrees per step, and a stale tensor would
-let the axial stiffness leak into the light direction. The kinetic-energy peak is therefore
-detected from the change of kinetic energy over one step measured with that step's masses,
-dKE = (v(t-dt/2) + dt/2 M^-1 R(t)) . R(t) dt, which stays meaningful when masses change.
-Without, they are Barnes' scalar masses f dt^2/2 S, updated by the caller between chunks.
+let the axial stiffness leak into the light direction. Without, they are Barnes' scalar
+masses f dt^2/2 S, updated every ``mass_every`` steps.
 """
 
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 import numpy as np
 from numba import njit
 
+from . import damping as dmp
 from .contact import closest_pair, pairs_within
-from .kernels import Packed, gradient, stiffness
+from .kernels import gradient, stiffness
 
 # why a chunk of steps ended
 STEPS_DONE, CONTACT, CONVERGED, NONFINITE, RUNAWAY = range(5)
+
+
+class State(NamedTuple):
+    """The time loop's arrays (changed in place); n free-or-fixed nodes, m with virtual ones."""
+
+    X: np.ndarray  # (m, 3) positions x(t), mm
+    V: np.ndarray  # (n, 3) velocities v(t - dt/2), mm per step
+    R: np.ndarray  # (n, 3) residual R(t) = loads - dE/dx at free DOFs, N
+    G: np.ndarray  # (m, 3) energy gradient (scratch), N
+    M: np.ndarray  # (n, 6) masses, N per mm (dt = 1)
+    Minv: np.ndarray  # (n, 6) their inverses
+    S: np.ndarray  # (m,) isotropic stiffness bounds, N/mm
+    D: np.ndarray  # (m, 6) directional stiffness blocks ((0, 6) for scalar masses), N/mm
+    free: np.ndarray  # (n, 3) 1 at free DOFs, 0 at fixed
+    loads: np.ndarray  # (n, 3) N
+    watched: np.ndarray  # (n,) bool: nodes the contact check follows
+    segments: np.ndarray  # (k, 2) node pairs of the contact chain
+    X0: np.ndarray  # (n, 3) positions at the run's start (viscous damping's displacement)
+    R_prev: np.ndarray  # (n, 3) residual one step earlier (viscous damping's stiffness estimate)
+    scratch: np.ndarray  # (2,) FIRE's mixing and uphill-free step count
+
+
+class Settings(NamedTuple):
+    """The time loop's settings."""
+
+    damping: int  # dr.damping.KINETIC, VISCOUS or FIRE
+    half_safety: float  # f/2 of M = f dt^2/2 K
+    max_steps: int
+    closed: bool  # the contact chain is closed
+    contact_distance: float  # mm (0: no contact check)
+    tol: float  # relative residual
+    force_floor: float  # smallest force scale, N
+    runaway: float  # largest step of a stable run, mm
+    mass_every: int  # steps between refreshes of the stiffness bounds
+
+
+def new_state(X: np.ndarray, free: np.ndarray, loads: np.ndarray, tensor: bool,
+              watched: np.ndarray, segments: np.ndarray) -> State:
+    """A state at rest at X with zeroed work arrays."""
+    n = free.shape[0]
+    return State(X=X, V=np.zeros((n, 3)), R=np.zeros((n, 3)), G=np.zeros_like(X), M=np.zeros((n, 6)),
+                 Minv=np.zeros((n, 6)), S=np.zeros(X.shape[0]), D=np.zeros((X.shape[0] if tensor else 0, 6)),
+                 free=free, loads=loads, watched=watched, segments=segments, X0=X[:n].copy(),
+                 R_prev=np.zeros((n, 3)), scratch=np.array([dmp.FIRE_ALPHA0, 0.0]))
 
 
 @njit(cache=True, error_model="numpy", inline="always")
@@ -32,9 +78,10 @@ def _nanmax(a, b):
 
 
 @njit(cache=True, error_model="numpy")
-def residual(X, P, G, D, loads, free, R):
-    """R = (loads - dE/dx) at free DOFs. Returns (largest element force, max |R_i|), N."""
-    fmax = gradient(X, P, G, D)
+def residual(st, P):
+    """st.R = (loads - dE/dx) at free DOFs. Returns (largest element force, max |R_i|), N."""
+    R, G, loads, free = st.R, st.G, st.loads, st.free
+    fmax = gradient(st.X, P, G, st.D)
     rmax2 = 0.0
     for i in range(P.n):
         r2 = 0.0
@@ -47,8 +94,9 @@ def residual(X, P, G, D, loads, free, R):
 
 
 @njit(cache=True, error_model="numpy")
-def build_masses(D, S, free, half_safety, M, Minv):
+def build_masses(st, half_safety):
     """M = f/2 (D + S I) per node, decoupled from fixed axes, and its inverse."""
+    D, S, free, M, Minv = st.D, st.S, st.free, st.M, st.Minv
     for i in range(M.shape[0]):
         s = S[i]
         if D.shape[0] > 0:
@@ -73,74 +121,68 @@ def build_masses(D, S, free, half_safety, M, Minv):
         Minv[i, 3], Minv[i, 4], Minv[i, 5] = cd / det, ce / det, cf / det
 
 
-@njit(cache=True, error_model="numpy", inline="always")
-def _mul(A, i, v0, v1, v2):
-    return (A[i, 0] * v0 + A[i, 3] * v1 + A[i, 4] * v2,
-            A[i, 3] * v0 + A[i, 1] * v1 + A[i, 5] * v2,
-            A[i, 4] * v0 + A[i, 5] * v1 + A[i, 2] * v2)
-
-
 @njit(cache=True, error_model="numpy")
-def _accelerate(V, R, Minv, free, n, factor):
-    """V = factor * V + Minv R at free DOFs."""
-    for i in range(n):
-        a = _mul(Minv, i, R[i, 0], R[i, 1], R[i, 2])
+def start(st, P, half_safety):
+    """The first half step from rest: v(dt/2) = dt/2 M^-1 R, x(dt), and R and masses there."""
+    st.R_prev[:, :] = st.R
+    dmp.accelerate(st.V, st.R, st.Minv, st.free, P.n, 0.0, 0.5)
+    for i in range(P.n):
         for c in range(3):
-            V[i, c] = (factor * V[i, c] + a[c]) * free[i, c]
+            st.X[i, c] += st.V[i, c]
+    residual(st, P)
+    if st.D.shape[0] > 0:
+        build_masses(st, half_safety)
 
 
 @njit(cache=True, error_model="numpy")
-def run(X, V, R, M, Minv, S, D, free, loads, P: Packed, G, half_safety, max_steps,
-        segments, closed, contact_distance, watched, tol, force_floor, runaway, mass_every):
-    """Advance up to ``max_steps`` leapfrog steps with kinetic damping.
+def _damp(st, P, scheme):
+    if scheme == dmp.VISCOUS:
+        return dmp.viscous(st, P)
+    if scheme == dmp.FIRE:
+        return dmp.fire(st, P)
+    return dmp.kinetic(st, P)
 
-    On entry X[:n] is x(t), V is v(t - dt/2), R is R(t) and M, Minv the masses at x(t). When
-    the kinetic energy falls (a peak has passed) the nodes go back to the estimated peak,
-    x* = x(t+dt) - 1.5 dt v(t+dt/2) + dt^2/2 M^-1 R(t), velocities are zeroed and the motion
-    restarts with v = dt/2 M^-1 R(x*).
+
+@njit(cache=True, error_model="numpy")
+def run(st, P, cfg):
+    """Advance up to ``cfg.max_steps`` leapfrog steps with the damping ``cfg.damping``.
+
+    On entry st.X[:n] is x(t), st.V is v(t - dt/2), st.R is R(t) and st.M, st.Minv the masses
+    at x(t). When the damping stops the motion it restarts from rest, v = dt/2 M^-1 R.
 
     Stops early when (a) the residual and the momentum |M v|/dt are both below ``tol`` times
     the largest element force (at least ``force_floor``), (b) two non-neighbouring
     ``segments`` (node pairs of a chain, ``closed`` or not) come closer than
     ``contact_distance`` mm, (c) a value is not finite, or (d) a node moves more than
     ``runaway`` mm in one step. Contact is tested with a Verlet list: pairs within reach
-    d + 2 skin are listed again whenever the ``watched`` nodes (bool, (n,)) may have moved a
-    skin, and the listed pairs are tested whenever they may have moved d/4, so nothing passes
-    through unseen. The stiffness bounds behind the masses are refreshed every
-    ``mass_every`` steps.
+    d + 2 skin are listed again whenever the ``watched`` nodes may have moved a skin, and the
+    listed pairs are tested whenever they may have moved d/4, so nothing passes through
+    unseen. The stiffness bounds behind the masses are refreshed every ``mass_every`` steps.
 
-    Returns (reason, steps, peaks, largest element force, max residual).
+    Returns (reason, steps, restarts, largest element force, max residual).
     """
     n = P.n
-    tensor = D.shape[0] > 0
+    X, V, M, watched, segments = st.X, st.V, st.M, st.watched, st.segments
+    tensor = st.D.shape[0] > 0
+    contact_distance = cfg.contact_distance
     steps = 0
-    peaks = 0
+    restarts = 0
     fmax, rmax = 0.0, 0.0
     check = segments.shape[0] > 0
     skin = 10.0 * contact_distance
-    candidates = pairs_within(X, segments, closed, contact_distance + 2.0 * skin) if check else np.zeros((0, 2), np.int64)
+    candidates = (pairs_within(X, segments, cfg.closed, contact_distance + 2.0 * skin) if check
+                  else np.zeros((0, 2), np.int64))
     moved_list = 0.0
     moved_check = 0.0
-    while steps < max_steps:
-        dke = 0.0
-        for i in range(n):
-            a = _mul(Minv, i, R[i, 0], R[i, 1], R[i, 2])
-            for c in range(3):
-                dke += (V[i, c] + 0.5 * a[c]) * R[i, c]
-        _accelerate(V, R, Minv, free, n, 1.0)
-        if dke < 0.0:
-            peaks += 1
-            for i in range(n):
-                a = _mul(Minv, i, R[i, 0], R[i, 1], R[i, 2])
-                for c in range(3):
-                    X[i, c] += -0.5 * V[i, c] + 0.5 * a[c] * free[i, c]
-            residual(X, P, G, D, loads, free, R)
-            if tensor:
-                build_masses(D, S, free, half_safety, M, Minv)
-            _accelerate(V, R, Minv, free, n, 0.0)
-            for i in range(n):
-                for c in range(3):
-                    V[i, c] *= 0.5
+    while steps < cfg.max_steps:
+        how = _damp(st, P, cfg.damping)
+        if how != dmp.GOING:
+            restarts += 1
+            if how == dmp.MOVED_BACK:
+                residual(st, P)
+                if tensor:
+                    build_masses(st, cfg.half_safety)
+            dmp.accelerate(V, st.R, st.Minv, st.free, n, 0.0, 0.5)
         step_max2 = 0.0
         watch_max2 = 0.0
         mom_max2 = 0.0
@@ -152,30 +194,30 @@ def run(X, V, R, M, Minv, S, D, free, loads, P: Packed, G, half_safety, max_step
             step_max2 = _nanmax(step_max2, v2)
             if watched[i]:
                 watch_max2 = _nanmax(watch_max2, v2)
-            m = _mul(M, i, V[i, 0], V[i, 1], V[i, 2])
+            m = dmp.mul(M, i, V[i, 0], V[i, 1], V[i, 2])
             mom_max2 = _nanmax(mom_max2, m[0] * m[0] + m[1] * m[1] + m[2] * m[2])
         steps += 1
-        refresh = steps % mass_every == 0
+        refresh = steps % cfg.mass_every == 0
         if refresh:
-            stiffness(X, P, S, not tensor)
-        fmax, rmax = residual(X, P, G, D, loads, free, R)
+            stiffness(X, P, st.S, not tensor)
+        fmax, rmax = residual(st, P)
         if tensor or refresh:
-            build_masses(D, S, free, half_safety, M, Minv)
+            build_masses(st, cfg.half_safety)
         step_max = math.sqrt(step_max2)
         moved_list += math.sqrt(watch_max2)
         moved_check += math.sqrt(watch_max2)
         if not (math.isfinite(rmax) and math.isfinite(step_max) and math.isfinite(mom_max2)):
-            return NONFINITE, steps, peaks, fmax, rmax
-        if step_max > runaway:
-            return RUNAWAY, steps, peaks, fmax, rmax
-        scale = max(fmax, force_floor)
-        if rmax <= tol * scale and math.sqrt(mom_max2) <= tol * scale:
-            return CONVERGED, steps, peaks, fmax, rmax
+            return NONFINITE, steps, restarts, fmax, rmax
+        if step_max > cfg.runaway:
+            return RUNAWAY, steps, restarts, fmax, rmax
+        scale = max(fmax, cfg.force_floor)
+        if rmax <= cfg.tol * scale and math.sqrt(mom_max2) <= cfg.tol * scale:
+            return CONVERGED, steps, restarts, fmax, rmax
         if check and moved_check > 0.25 * contact_distance:
             moved_check = 0.0
             if moved_list > skin:
                 moved_list = 0.0
-                candidates = pairs_within(X, segments, closed, contact_distance + 2.0 * skin)
+                candidates = pairs_within(X, segments, cfg.closed, contact_distance + 2.0 * skin)
             if closest_pair(X, segments, candidates)[0] < contact_distance:
-                return CONTACT, steps, peaks, fmax, rmax
-    return STEPS_DONE, steps, peaks, fmax, rmax
+                return CONTACT, steps, restarts, fmax, rmax
+    return STEPS_DONE, steps, restarts, fmax, rmax

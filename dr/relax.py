@@ -15,6 +15,7 @@ from . import integrator as itg
 from .contact import FrameContact
 from .errors import DRError
 from .beams import curvatures
+from .damping import SCHEMES
 from .finite import degenerate_elements, where_not_finite
 from .kernels import Packed, energy, place_virtual, stiffness
 from .strips import EIW, KN0, KW0, LBAR, TAU0, strip_measures
@@ -49,8 +50,9 @@ def relax(
     force_scale: float = 0.0,
     progress: bool = False,
     chunk: int = 20_000,
+    damping: str = "kinetic",
 ) -> Result:
-    """Relax ``model`` to equilibrium with kinetic damping.
+    """Relax ``model`` to equilibrium by dynamic relaxation.
 
     Parameters
     ----------
@@ -87,6 +89,9 @@ def relax(
         Show a progress bar with the residual.
     chunk
         Steps between residual records (and progress updates).
+    damping
+        'kinetic' (Barnes), 'viscous' (Underwood's adaptive coefficient) or 'fire' (Bitzek
+        et al.): :mod:`dr.damping`.
 
     Returns
     -------
@@ -112,6 +117,8 @@ def relax(
         raise DRError("max_iterations must be at least 1")
     if masses not in ("tensor", "scalar"):
         raise DRError(f"masses = {masses!r}: use 'tensor' or 'scalar'")
+    if damping not in SCHEMES:
+        raise DRError(f"damping = {damping!r}: use one of {', '.join(map(repr, SCHEMES))}")
     if not model.fixed.any():
         raise DRError(
             "the model has no supports: it can move as a rigid body; pin some nodes with "
@@ -129,43 +136,30 @@ def relax(
             raise DRError(f"x_start must be a finite ({n}, 3) array of positions (mm)")
         X[:n] = xs
     free = (~model.fixed).astype(float)
-    tensor = masses == "tensor"
-    G = np.zeros_like(X)
-    S = np.zeros(X.shape[0])
-    D = np.zeros((X.shape[0] if tensor else 0, 6))
-    M, Minv = np.zeros((n, 6)), np.zeros((n, 6))
     loads = model.loads
-    R = np.zeros((n, 3))
     positions = "start" if x_start is not None else "reference"
     degenerate = degenerate_elements(X, P)
     if degenerate:
         raise DRError(f"the {positions} positions are degenerate: {'; '.join(degenerate)}; move the nodes apart")
-    _update_masses(X, P, G, S, D, loads, free, R, mass_safety, M, Minv, tensor)
-    if not (np.isfinite(R).all() and np.isfinite(Minv).all()):
-        raise DRError(
-            f"the {positions} positions give a non-finite force or mass, first at {where_not_finite(X, R, P)}; "
-            "look for coincident nodes or stiffnesses so large that they overflow"
-        )
-    runaway = max(float(np.linalg.norm(np.ptp(X[:n], axis=0))), 1e-9)
-    # a residual below the round-off of the stiffest link's force cannot be resolved
-    # (positions carry ~2 eps |x|): the force scale is at least 10x that noise over tol
-    k_max = float(np.max(P.link_EA / P.link_L0)) if P.link_EA.size else 0.0
-    noise = k_max * 2.0 * np.finfo(float).eps * float(np.abs(X[:n]).max())
-    force_floor = max(float(np.max(np.linalg.norm(loads, axis=1))), float(force_scale), 10.0 * noise / tol, 1e-300)
     watched = np.zeros(n, dtype=bool)
     segments, closed, distance = np.zeros((0, 2), np.int64), False, 0.0
     if contact is not None:
         watched[contact.nodes] = True
         segments, closed, distance = contact.segments, contact.closed, contact.distance
-
-    # first half step from rest: v(dt/2) = dt/2 M^-1 R, then x(dt)
-    V = np.zeros((n, 3))
-    itg._accelerate(V, R, Minv, free, n, 0.0)
-    V *= 0.5
-    X[:n] += V
-    itg.residual(X, P, G, D, loads, free, R)
-    if tensor:
-        itg.build_masses(D, S, free, 0.5 * mass_safety, M, Minv)
+    st = itg.new_state(X, free, loads, masses == "tensor", watched, segments)
+    _update_masses(st, P, mass_safety)
+    if not (np.isfinite(st.R).all() and np.isfinite(st.Minv).all()):
+        raise DRError(
+            f"the {positions} positions give a non-finite force or mass, first at {where_not_finite(X, st.R, P)}; "
+            "look for coincident nodes or stiffnesses so large that they overflow"
+        )
+    runaway = max(float(np.linalg.norm(np.ptp(X[:n], axis=0))), 1e-9)
+    cfg = itg.Settings(
+        damping=SCHEMES[damping], half_safety=0.5 * mass_safety, max_steps=int(chunk), closed=bool(closed),
+        contact_distance=float(distance), tol=float(tol), force_floor=_force_floor(X, P, loads, tol, force_scale),
+        runaway=runaway, mass_every=MASS_EVERY,
+    )
+    itg.start(st, P, cfg.half_safety)
 
     e_start = _potential_energy(X, P, loads)
 
@@ -175,7 +169,7 @@ def relax(
         rise = e_now - e_start
         if not np.isfinite(rise) or rise <= ENERGY_RISE * max(abs(e_start), abs(e_now), 1e-300):
             return None  # a NaN energy is named 'not_finite' when the result is made
-        return (f"the energy rose from {e_start:.4g} to {e_now:.4g} N mm, which kinetic damping cannot do: "
+        return (f"the energy rose from {e_start:.4g} to {e_now:.4g} N mm, which damping cannot do: "
                 f"the time step is unstable with mass_safety = {mass_safety:g}; raise it (f >= 1 is "
                 "stable, 2 is safe)")
 
@@ -188,22 +182,18 @@ def relax(
         while True:
             steps_left = int(max_iterations) - it
             try:
-                code, steps, pk, fmax, rmax = itg.run(
-                    X, V, R, M, Minv, S, D, free, loads, P, G, 0.5 * mass_safety,
-                    min(chunk, steps_left), segments, closed, distance, watched, tol, force_floor,
-                    runaway, MASS_EVERY,
-                )
+                code, steps, pk, fmax, rmax = itg.run(st, P, cfg._replace(max_steps=min(chunk, steps_left)))
             except np.linalg.LinAlgError:  # a NaN reached the strip's mass bound (an eigensolver)
                 code, steps, pk, fmax, rmax = itg.NONFINITE, 0, 0, np.nan, np.nan
             it += steps
             peaks += pk
             bar.update(steps)
-            rel = rmax / max(fmax, force_floor)
+            rel = rmax / max(fmax, cfg.force_floor)
             history.append((it, rel))
             bar.set_postfix_str(f"residual {rel:.2e}")
             last_good = history[-2][0] if len(history) > 1 else 1
             if code == itg.NONFINITE:
-                where = where_not_finite(X, R, P, good)
+                where = where_not_finite(X, st.R, P, good)
                 X[:] = good
                 status = "not_finite"
                 message = (f"a value became NaN/inf at iteration {it}, first at {where}; the last finite "
@@ -251,7 +241,7 @@ def relax(
     res = make_result(
         model, P, X, status == "converged", status, message, it, residual_now,
         np.array(history), time.perf_counter() - t0,
-        {"ke_peaks": peaks, "mass_safety": mass_safety, "masses": masses},
+        {"ke_peaks": peaks, "mass_safety": mass_safety, "masses": masses, "damping": damping},
     )
     if not all(np.isfinite(v) for v in res.energy.values()) and status != "not_finite":
         res.converged, res.status = False, "not_finite"
@@ -265,20 +255,30 @@ def _potential_energy(X: np.ndarray, P: Packed, loads: np.ndarray) -> float:
     return float(sum(energy(X, P))) + float(dielectric.energy(X, P)) - float(np.sum(loads * X[: P.n]))
 
 
-def _update_masses(X, P, G, S, D, loads, free, R, safety, M, Minv, tensor) -> None:
+def _update_masses(st: itg.State, P: Packed, safety: float) -> None:
     """Rebuild the stiffness bounds (beams, cables, strip blocks; all of it for scalar
-    masses), the residual and directional blocks at X, and the masses. A free node that
-    nothing resists is an input error."""
-    stiffness(X, P, S, not tensor)
-    itg.residual(X, P, G, D, loads, free, R)
-    diag = S[: P.n] + (D[: P.n, :3].max(axis=1) if tensor else 0.0)
-    loose = np.flatnonzero((diag <= 0) & free.any(axis=1))
+    masses), the residual and directional blocks, and the masses. A free node that nothing
+    resists is an input error."""
+    tensor = st.D.shape[0] > 0
+    stiffness(st.X, P, st.S, not tensor)
+    itg.residual(st, P)
+    diag = st.S[: P.n] + (st.D[: P.n, :3].max(axis=1) if tensor else 0.0)
+    loose = np.flatnonzero((diag <= 0) & st.free.any(axis=1))
     if loose.size:
         raise DRError(
             f"node {loose[0]} can move but no element resists it (no stiffness); connect it to "
             "an element or support it"
         )
-    itg.build_masses(D, S, free, 0.5 * safety, M, Minv)
+    itg.build_masses(st, 0.5 * safety)
+
+
+def _force_floor(X: np.ndarray, P: Packed, loads: np.ndarray, tol: float, force_scale: float) -> float:
+    """The smallest force scale (N) of the convergence test: the largest load, ``force_scale``,
+    and 10x the round-off of the stiffest link's force over tol (positions carry ~2 eps |x|,
+    so a residual below that noise cannot be resolved)."""
+    k_max = float(np.max(P.link_EA / P.link_L0)) if P.link_EA.size else 0.0
+    noise = k_max * 2.0 * np.finfo(float).eps * float(np.abs(X[: P.n]).max())
+    return max(float(np.max(np.linalg.norm(loads, axis=1))), float(force_scale), 10.0 * noise / tol, 1e-300)
 
 
 def element_forces(model: Model, P: Packed, X: np.ndarray) -> dict[str, np.ndarray]:

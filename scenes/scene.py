@@ -416,6 +416,10 @@ class DRSpec(_Section):
     step_tolerance: float = spec(
         1e-3, between(1e-12, 0.1, why=" (relative residual)"), "", "tolerance of the intermediate pre-stretch steps")
     check_contact: bool = spec(True, boolean, "", "stop on frame self-contact or membrane folds")
+    damping: str = spec(
+        "kinetic", one_of("kinetic", "viscous", "fire"), "",
+        "'kinetic' (Barnes' kinetic damping), 'viscous' (Underwood's adaptive coefficient) or 'fire' "
+        "(Bitzek et al.'s velocity mixing)")
 
     def __post_init__(self) -> None:
         super().__post_init__()

@@ -210,7 +210,21 @@ def cmd_bench(args: argparse.Namespace) -> int:
 
     if not 1 <= args.repeats <= 100:
         raise DemesError(f"--repeats {args.repeats}: give 1 to 100 runs per case")
-    return bench.main(repeats=args.repeats)
+    if not args.strip:
+        return bench.main(repeats=args.repeats)
+    from . import bench_strip
+    from .tables import format_table
+
+    if not 0 <= args.refinement <= 3:
+        raise DemesError(f"--refinement {args.refinement}: give 0 to 3 (each halves the element size)")
+    lams = sorted(set(prestretch_list("--prestretch", args.prestretch)))
+    rows = bench_strip.rows(nets=args.nets, dampings=args.dampings, prestretches=lams,
+                            refinement=args.refinement, repeats=args.repeats, fem=not args.no_fem)
+    if args.json:
+        print(json.dumps(rows, indent=1))
+    else:
+        print(format_table(rows, bench_strip.COLUMNS))
+    return 0
 
 
 def _cluster_options(p: argparse.ArgumentParser) -> None:
@@ -260,6 +274,16 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=cmd_sweep)
     p = sub.add_parser("bench", help="time the DR solver on the elastica and the paper DEMES")
     p.add_argument("--repeats", type=int, default=3, help="runs per case (median reported)")
+    p.add_argument("--strip", action="store_true",
+                   help="the strip DEMES for each net and damping, from flat, against the FEM on the same mesh")
+    p.add_argument("--nets", nargs="+", default=["triangles", "links", "clustered"],
+                   choices=["triangles", "links", "clustered"], help="with --strip: dr.membrane_net values")
+    p.add_argument("--dampings", nargs="+", default=["kinetic", "viscous", "fire"],
+                   choices=["kinetic", "viscous", "fire"], help="with --strip: dr.damping values")
+    p.add_argument("--prestretch", nargs="+", type=float, default=[1.1, 1.3, 1.5], help="with --strip: levels")
+    p.add_argument("--refinement", type=int, default=1, help="with --strip: fem.refinement (the triangles' mesh)")
+    p.add_argument("--no-fem", action="store_true", help="with --strip: skip the FEM timing")
+    p.add_argument("--json", action="store_true", help="with --strip: rows as JSON")
     p.set_defaults(func=cmd_bench)
     return parser
 
