@@ -44,8 +44,11 @@ def element_count(model: dr.Model) -> int:
     return P.link_ij.shape[0] + P.clu_seg.shape[0] + P.beam_idx.shape[0] + P.strip_idx.shape[0]
 
 
-def timed(run: Callable[[], Result], repeats: int) -> tuple[Result, float]:
-    run()  # compile and warm up
+def timed(run: Callable[[], Result], repeats: int, warm_up: bool = True) -> tuple[Result, float]:
+    """The last result of ``run`` and the median wall time (s) of ``repeats`` calls, after one
+    call that compiles and warms up (``warm_up``; off where a cheaper run did that already)."""
+    if warm_up:
+        run()
     times, res = [], None
     for _ in range(repeats):
         t0 = time.perf_counter()

@@ -10,7 +10,6 @@ that only reads and writes the loop's arrays (:func:`floor_ns_per_node_iteration
 
 from __future__ import annotations
 
-import statistics
 import time
 
 import numpy as np
@@ -21,6 +20,8 @@ import fem_reference
 import scenes
 from results import Result
 
+from .bench import timed
+
 NETS = ("triangles", "links", "clustered")
 DAMPINGS = ("kinetic", "viscous", "fire")
 LADDER = (1e-3, 1e-4, 1e-5)
@@ -30,15 +31,6 @@ LADDER = (1e-3, 1e-4, 1e-5)
 def strip_scene(prestretch: float, net: str, damping: str, refinement: int) -> scenes.Scene:
     return scenes.paper_demes(prestretch, "strip", **{"dr.membrane_net": net, "dr.damping": damping,
                                                       "fem.refinement": refinement})
-
-
-def _median_time(run, repeats: int) -> tuple[Result, float]:
-    times, res = [], None
-    for _ in range(repeats):
-        t0 = time.perf_counter()
-        res = run()
-        times.append(time.perf_counter() - t0)
-    return res, statistics.median(times)
 
 
 def time_to_error(scene: scenes.Scene, converged: Result, t_converged: float) -> dict[str, float]:
@@ -91,8 +83,8 @@ def floor_ns_per_node_iteration(model: dr.Model, steps: int = 2000) -> float:
 def fem_times(prestretches, refinement: int, repeats: int) -> dict[float, tuple[Result, float]]:
     """The FEM from flat to each pre-stretch on the strip DEMES at ``refinement`` (s, median)."""
     fem_reference.solve(strip_scene(1.05, "triangles", "kinetic", refinement))  # warm-up
-    return {lam: _median_time(lambda: fem_reference.solve(strip_scene(lam, "triangles", "kinetic", refinement)),
-                              repeats) for lam in prestretches}
+    return {lam: timed(lambda: fem_reference.solve(strip_scene(lam, "triangles", "kinetic", refinement)),
+                       repeats, warm_up=False) for lam in prestretches}
 
 
 def rows(nets=NETS, dampings=DAMPINGS, prestretches=(1.5,), refinement: int = 0, repeats: int = 1,
@@ -105,7 +97,7 @@ def rows(nets=NETS, dampings=DAMPINGS, prestretches=(1.5,), refinement: int = 0,
         for damping in dampings:
             for lam in prestretches:
                 scene = strip_scene(lam, net, damping, refinement)
-                res, t = _median_time(lambda: dr.solve(scene), repeats)
+                res, t = timed(lambda: dr.solve(scene), repeats, warm_up=False)
                 row = {"net": net, "damping": damping, "prestretch": lam, "status": res.status,
                        "iterations": res.iterations, "time": t, "theta": res.bending_angle,
                        "ns_per_node_iteration": 1e9 * t / max(res.iterations, 1) / res.x.shape[0]}
