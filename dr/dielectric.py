@@ -87,6 +87,8 @@ def dielectric_gradient(X, idx, par, G, xl, gl):
 @njit(cache=True, error_model="numpy")
 def gradient(X, P, G, D):
     """Add the dielectric's gradient of every film triangle to G; returns its largest force (N)."""
+    if P.diel_idx.shape[0] == 0:  # no voltage: no scratch arrays in the time loop
+        return 0.0
     xt = np.zeros((3, 3))
     gt = np.zeros((3, 3))
     fmax = 0.0
@@ -98,6 +100,8 @@ def gradient(X, P, G, D):
 @njit(cache=True, error_model="numpy")
 def energy(X, P):
     """The dielectric's energy -(eps0 eps_r V^2 / 2) integral of 1/h da over every film triangle, N mm."""
+    if P.diel_idx.shape[0] == 0:
+        return 0.0
     xt = np.zeros((3, 3))
     gt = np.zeros((3, 3))
     total = 0.0
@@ -114,6 +118,8 @@ def energy(X, P):
 def stiffness(X, P, S, with_links):
     """Add the Gershgorin bound of each triangle's dielectric Hessian (it softens the film: its
     size, not its sign, bounds the time step) to S."""
+    if P.diel_idx.shape[0] == 0:
+        return
     xt = np.zeros((3, 3))
     H = np.zeros((9, 9))
     for k in range(P.diel_idx.shape[0]):
