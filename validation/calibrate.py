@@ -44,7 +44,7 @@ VHB_LOCKING_STRETCH = 6.0
 def flattening_voltage(scene: Scene) -> float:
     """Closed-form flattening voltage (V) of a scene: the zero-tension voltage of its flat film."""
     m = scene.membrane
-    tension = flat_film_tension(m.law, m.E, m.thickness, scene.prestretch)
+    tension = flat_film_tension(m.law, m.E, m.thickness, scene.prestretch, m.gent_jm)
     return zero_tension_voltage(tension, mounted_thickness(scene), m.permittivity)
 
 
@@ -111,9 +111,9 @@ class Calibration:
 def implications(scene: Scene, fitted_E: float) -> list[str]:
     """What the fitted film modulus means for VHB and for the 200 % -> 150 % gap."""
     m = scene.membrane
-    tension = flat_film_tension(m.law, fitted_E, m.thickness, scene.prestretch)
+    tension = flat_film_tension(m.law, fitted_E, m.thickness, scene.prestretch, m.gent_jm)
     stress = tension / m.thickness
-    table = flat_film_tension(m.law, m.E, m.thickness, scene.prestretch) / m.thickness
+    table = flat_film_tension(m.law, m.E, m.thickness, scene.prestretch, m.gent_jm) / m.thickness
     lines = [f"the fit puts the flat film's pre-stress at {1000 * stress:.1f} kPa "
              f"(Table I at {scene.prestretch:g}: {1000 * table:.0f} kPa, {table / stress:.1f} times more)"]
     for label, jm in (("neo-Hookean", None), (f"Gent (locking stretch {VHB_LOCKING_STRETCH:g})", gent_jm(VHB_LOCKING_STRETCH))):
