@@ -143,3 +143,26 @@ def test_first_contact_extrapolates_the_levels_brackets():
     assert rows[-1]["value"] == pytest.approx(exact, abs=1e-12)
     assert rows[-1]["order"] == pytest.approx(2.0)
     assert rows[-1]["error"] >= 5e-4
+
+
+def test_report_is_against_the_experiment_with_its_csv(report):
+    """The voltage runs: every sweep in experiment.csv, one summary row per run; the swept
+    flattening voltage is the closed form's (the frame's buckling tension is small), the
+    calibrated film's closed form is the experiment's 2.25 kV, and the stroke grows with V."""
+    out, _, _ = report
+    md = (out / "report.md").read_text()
+    assert "## Against the experiment" in md
+    summary = {r["run"]: r for r in read_csv(out / "experiment_summary.csv")}
+    assert set(summary) == {"exp_fem_table1", "exp_dr_table1", "exp_fem_calibrated"}
+    fem = summary["exp_fem_table1"]
+    assert float(fem["flat_voltage [V]"]) == pytest.approx(float(fem["flat_closed_form [V]"]), rel=0.01)
+    assert float(summary["exp_fem_calibrated"]["flat_closed_form [V]"]) == pytest.approx(2250.0, rel=1e-9)
+    states = read_csv(out / "experiment.csv")
+    for label in summary:
+        rows = [r for r in states if r["run"] == label]
+        assert float(rows[0]["voltage [V]"]) == 0.0 and len(rows) >= 3
+        stroke = [float(r["stroke [deg]"]) for r in rows]
+        assert stroke[0] == 0.0 and all(b >= a - 1e-6 for a, b in zip(stroke, stroke[1:]))
+    for name in ("experiment_stroke_voltage", "experiment_energy_stroke"):
+        assert (out / "figures" / f"{name}.png").exists()
+    assert (out / "runs" / "exp_fem_table1" / "exp_fem_table1.pvd").exists()

@@ -14,7 +14,9 @@ from results import Result
 
 from fem_reference import richardson
 
+from . import experiment
 from .compare import CURVE_SAMPLES, Reference, build_reference, state_metrics
+from .experiment import Experiment
 from .plan import Plan, Run
 from .runner import load_states, run_record
 from .sweep import not_reached
@@ -41,11 +43,12 @@ class Analysis:
     reference_rows: list[dict[str, Any]] = field(default_factory=list)
     branch_rows: list[dict[str, Any]] = field(default_factory=list)
     first_contact: list[dict[str, Any]] = field(default_factory=list)
+    experiment: Experiment | None = None  # the voltage runs (validation.experiment)
 
 
 def analyse(plan: Plan, out_dir: Path) -> Analysis:
     """Read every run of ``plan`` from ``out_dir`` and compute the report's tables."""
-    states = {r.label: load_states(out_dir / "runs" / r.label, r.prestretches) for r in plan.runs}
+    states = {r.label: load_states(out_dir / "runs" / r.label, r.prestretches) for r in plan.runs if not r.voltages}
     records = {r.label: run_record(out_dir / "runs" / r.label) or {} for r in plan.runs}
     references = {}
     branch_rows = []
@@ -76,6 +79,7 @@ def analyse(plan: Plan, out_dir: Path) -> Analysis:
     _budget(a, chain, tight)
     _hard(a)
     _reference_rows(a)
+    a.experiment = experiment.analyse(plan, out_dir)
     return a
 
 

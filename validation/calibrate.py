@@ -27,7 +27,7 @@ from scipy.optimize import brentq
 from scenes import Scene, SceneError
 from scenes.electric import mounted_thickness
 
-from .actuate import PAPER_FLAT_V, PAPER_SUBSTANTIAL_V, characteristics, row
+from .actuate import PAPER_FLAT_V, PAPER_SUBSTANTIAL_V, Characteristics, characteristics, row
 from .electromechanics import (equibiaxial_mechanical_stress, flat_film_tension, gent_jm,
                                zero_tension_voltage)
 
@@ -36,6 +36,9 @@ PUBLISHED_VHB_MU = (0.013, 0.015)
 
 PHYSICAL_PRESTRETCH = 2.0
 """The physical sample's pre-stretch (200 %)."""
+
+CHECK_VOLTAGES = tuple(float(v) for v in np.arange(0.0, 1.4 * PAPER_FLAT_V + 1, 125.0))
+"""Voltages (V) of the check sweep of a fitted scene: past the target flattening voltage."""
 
 VHB_LOCKING_STRETCH = 6.0
 """A published Gent locking stretch of VHB (Jm from it: :func:`gent_jm`)."""
@@ -124,12 +127,11 @@ def implications(scene: Scene, fitted_E: float) -> list[str]:
     return lines
 
 
-def calibrate(scene: Scene, refinement: int = 0, voltages: tuple[float, ...] | None = None,
-              progress=print) -> Calibration:
-    """Fit ``membrane.E`` and ``frame.E`` (see the module docstring) and check them by a FEM
-    voltage sweep."""
+def fit(scene: Scene, refinement: int = 0, progress=print, frame: bool = True
+        ) -> tuple[Scene, Calibration, float]:
+    """Fit ``membrane.E`` and (if ``frame``) ``frame.E`` (see the module docstring): the fitted
+    scene, the calibration (no residuals yet) and the scene's own bending angle at 0 V (deg)."""
     from fem_reference import solve
-    from fem_reference.actuation import voltage_sweep
 
     base = solve(scene, refinement)
     if not base.converged:
@@ -139,29 +141,44 @@ def calibrate(scene: Scene, refinement: int = 0, voltages: tuple[float, ...] | N
     e_film = fit_membrane_modulus(scene)
     progress(f"membrane.E = {e_film:.4g} MPa puts the flattening voltage at {PAPER_FLAT_V:.0f} V")
     soft = scene.updated(**{"membrane.E": e_film})
-    e_frame, tried = fit_frame_modulus(soft, base.bending_angle, refinement, progress)
+    e_frame, tried = (fit_frame_modulus(soft, base.bending_angle, refinement, progress) if frame
+                      else (scene.frame.E, []))
     fitted = soft.updated(**{"frame.E": e_frame})
     cal = Calibration(e_film, e_frame, flattening_voltage(fitted),
                       {k: sensitivity(fitted, k) for k in ("membrane.E", "loading.prestretch",
                                                            "membrane.thickness", "frame.E")},
                       tried=tried)
-    volts = voltages or tuple(float(v) for v in np.arange(0.0, 1.4 * PAPER_FLAT_V + 1, 125.0))
+    cal.implications = implications(scene, e_film)
+    if frame:
+        cal.implications.append(
+            f"frame.E = {e_frame:.4g} MPa keeps the 0 V shape: the strip's bending stiffness scaled by "
+            f"{e_frame / scene.frame.E:.3g}, i.e. an effective thickness "
+            f"{scene.frame.thickness * (e_frame / scene.frame.E) ** (1 / 3):.3f} mm for {scene.frame.thickness:g} mm")
+    return fitted, cal, base.bending_angle
+
+
+def residuals(ch: Characteristics, theta_target: float) -> dict[str, float]:
+    """Residuals of the targets from the fitted scene's voltage sweep (its characteristics)."""
+    return {
+        "flat_voltage_V": ch.flat_voltage - PAPER_FLAT_V,
+        "bending_angle_0V_deg": ch.theta0 - theta_target,
+        "stroke_at_1kV_deg": ch.stroke_at_1kV,
+        "stroke_at_1kV_fraction": ch.stroke_at_1kV / ch.theta0 if ch.theta0 else float("nan"),
+    }
+
+
+def calibrate(scene: Scene, refinement: int = 0, voltages: tuple[float, ...] | None = None,
+              progress=print) -> Calibration:
+    """Fit ``membrane.E`` and ``frame.E`` and check them by a FEM voltage sweep."""
+    from fem_reference.actuation import voltage_sweep
+
+    fitted, cal, theta_target = fit(scene, refinement, progress)
+    volts = voltages or CHECK_VOLTAGES
     rows, theta0 = [], None
     for res in voltage_sweep(fitted, volts, refinement):
         theta0 = res.bending_angle if theta0 is None else theta0
         rows.append(row(res, theta0))
-    ch = characteristics(rows)
-    cal.residuals = {
-        "flat_voltage_V": ch.flat_voltage - PAPER_FLAT_V,
-        "bending_angle_0V_deg": ch.theta0 - base.bending_angle,
-        "stroke_at_1kV_deg": ch.stroke_at_1kV,
-        "stroke_at_1kV_fraction": ch.stroke_at_1kV / ch.theta0 if ch.theta0 else float("nan"),
-    }
-    cal.implications = implications(scene, e_film)
-    cal.implications.append(
-        f"frame.E = {e_frame:.4g} MPa keeps the 0 V shape: the strip's bending stiffness scaled by "
-        f"{e_frame / scene.frame.E:.3g}, i.e. an effective thickness {scene.frame.thickness * (e_frame / scene.frame.E) ** (1 / 3):.3f} mm "
-        f"for {scene.frame.thickness:g} mm")
+    cal.residuals = residuals(characteristics(rows), theta_target)
     return cal
 
 

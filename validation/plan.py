@@ -39,11 +39,18 @@ class Run:
     refinement
         FEM refinement level.
     group
-        'sweep' (the main comparison), 'reference' (FEM levels), 'speed', 'budget', 'hard'.
+        'sweep' (the main comparison), 'reference' (FEM levels), 'speed', 'budget', 'hard',
+        'experiment' (voltage sweeps).
     title
         What the run shows, for tables.
     cold
         Solve each pre-stretch from scratch (timings of the speed study) instead of a sweep.
+    voltages
+        A voltage run (group 'experiment', :mod:`validation.experiment`): these voltages (V) at
+        the scene's pre-stretch, one warm-started path; ``prestretches`` is then empty.
+    fit
+        Scene fields fitted to the experiment before the voltage run
+        (:func:`validation.calibrate.fit`): ``("membrane.E",)`` or ``("membrane.E", "frame.E")``.
     """
 
     label: str
@@ -54,6 +61,8 @@ class Run:
     group: str = "sweep"
     title: str = ""
     cold: bool = False
+    voltages: tuple[float, ...] = ()
+    fit: tuple[str, ...] = ()
 
 
 @dataclass(frozen=True)
@@ -135,6 +144,9 @@ def build_plan(quick: bool = False) -> Plan:
         runs.append(Run(f"speed_fem_r{k}", "fem", {**coarse, **REFERENCE}, (speed_lam,), refinement=k, group="speed",
                         title=f"FEM, refinement {k}", cold=True))
     runs += hard_cases(coarse, hard_lams, quick)
+    from .experiment import experiment_runs  # it builds Runs: imported here, not at the top
+
+    runs += experiment_runs(coarse, quick)
     return Plan(tuple(runs), sweep, speed_lam, levels)
 
 

@@ -17,6 +17,7 @@ import numpy as np
 
 from results import ENERGY_DEFINITION, atomic_write_text, level_label
 
+from . import experiment
 from .analysis import BRANCH_JUMP, THRESHOLDS, Analysis
 from .beam_energy import mismatch_sentence
 from .compare import METRIC_UNITS
@@ -249,6 +250,9 @@ def write_report(a: Analysis, out_dir: Path, figures: dict[str, Path | None], ti
         Section("Shapes", [f"DR and FEM states rendered top, side and perspective (the paper's Fig. 3 views); "
                            f"ParaView series: runs/<run>/<run>.pvd.", figures.get("renders")]),
     ]
+    if a.experiment is not None:
+        files.update(experiment.write_tables(a.experiment, out_dir))
+        sections.append(experiment.section(a.experiment, figures))
     for sec in sections:
         sec.parts = [p for p in sec.parts if p is not None]
     files["md"] = atomic_write_text(out_dir / "report.md", to_markdown(sections, title, out_dir))
