@@ -48,9 +48,8 @@ class Run:
     voltages
         A voltage run (group 'experiment', :mod:`validation.experiment`): these voltages (V) at
         the scene's pre-stretch, one warm-started path; ``prestretches`` is then empty.
-    fit
-        Scene fields fitted to the experiment before the voltage run
-        (:func:`validation.calibrate.fit`): ``("membrane.E",)`` or ``("membrane.E", "frame.E")``.
+    calibrate
+        Fit the scene to the experiment before the voltage run (:func:`validation.calibrate.fit`).
     """
 
     label: str
@@ -62,7 +61,7 @@ class Run:
     title: str = ""
     cold: bool = False
     voltages: tuple[float, ...] = ()
-    fit: tuple[str, ...] = ()
+    calibrate: bool = False
 
 
 @dataclass(frozen=True)

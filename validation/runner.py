@@ -146,7 +146,7 @@ def _as_recorded(run: Run) -> dict[str, Any]:
     """``run`` as its record holds it (through JSON: tuples become lists). The voltage fields
     are left out where they are off, so records written before they existed still match."""
     rec = asdict(run)
-    for key in ("voltages", "fit"):
+    for key in ("voltages", "calibrate"):
         if not rec[key]:
             del rec[key]
     return json.loads(json.dumps(rec))
