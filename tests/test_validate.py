@@ -57,6 +57,43 @@ def test_reference_is_the_richardson_extrapolation_of_the_levels(report):
         assert float(r["extrapolated"]) == pytest.approx(est.extrapolated, rel=1e-9, abs=1e-12)
 
 
+def test_reference_table_and_level_costs_restate_the_levels(report):
+    out, _, _ = report
+    long = {(float(r["prestretch"]), r["quantity"]): r for r in read_csv(out / "reference.csv")}
+    table = read_csv(out / "reference_table.csv")
+    assert table
+    for row in table:
+        lam = float(row["prestretch"])
+        for q, unit in (("bending_angle", "deg"), ("apex_z", "mm"), ("energy_total", "N mm")):
+            assert float(row[f"{q} [{unit}]"]) == float(long[(lam, q)]["extrapolated"])
+            assert float(row[f"{q}_error [{unit}]"]) == float(long[(lam, q)]["error"])
+    fem = {r["run"]: r for r in read_csv(out / "states.csv") if r["run"].startswith("fem_r")}
+    levels = read_csv(out / "fem_levels.csv")
+    assert [int(r["level"]) for r in levels] == [0, 1]
+    assert int(levels[1]["free_dofs"]) > 3 * int(levels[0]["free_dofs"])  # halving h: ~4x the nodes
+    assert all(f"fem_r{r['level']}" in fem for r in levels)
+
+
+def test_dr_limit_is_the_extrapolation_of_its_own_refinement(report):
+    out, _, _ = report
+    states = read_csv(out / "states.csv")
+    chain = [r.label for r in build_plan(quick=True).by_group("drconv")]
+    limits = read_csv(out / "limits.csv")
+    assert [float(r["prestretch"]) for r in limits] == list(build_plan(quick=True).sweep)
+    for row in limits:
+        lam = float(row["prestretch"])
+        angles = [float(next(s for s in states if s["run"] == label and float(s["prestretch"]) == lam)["bending_angle [deg]"])
+                  for label in chain]
+        assert float(row["theta_dr [deg]"]) == pytest.approx(fem_reference.richardson(angles).extrapolated, abs=1e-9)
+
+
+def test_the_nets_refined_limits_are_model_form_rows(report):
+    out, _, _ = report
+    rows = [r for r in read_csv(out / "error_budget.csv") if "each extrapolated" in r["what"]]
+    assert {r["what"].split()[0] for r in rows} == {"links", "clustered"}
+    assert all(np.isfinite(float(r["bending_angle_diff [deg]"])) for r in rows)
+
+
 def test_every_hard_case_has_an_outcome(report):
     out, _, _ = report
     rows = read_csv(out / "hard_cases.csv")
