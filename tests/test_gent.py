@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from test_actuation import EPS_R, FreeFilm, L, _dr_quarter_film, coefficient, square_basis
+from test_actuation import EPS_R, FreeFilm, _dr_quarter_film, coefficient, square_basis
 
 import dr
 from dr.kernels import energy as dr_energy
