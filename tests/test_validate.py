@@ -9,6 +9,7 @@ import pytest
 import dr
 import fem_reference
 import scenes
+from validation.cli import main
 from validation.plan import MATCHED, REFERENCE, build_plan
 from validation.validate import validate
 
@@ -117,6 +118,11 @@ def test_interrupted_validation_redoes_only_what_is_missing(report):
     kept = sorted(victim.glob("*.npz"))[:-1]
     kept_stamps = {p.name: p.stat().st_mtime_ns for p in kept}
     last.unlink()
+    # --report-only solves nothing and names the unfinished run
+    assert main(["validate", "--quick", "--out", str(out), "--report-only", "--no-progress"]) == 0
+    assert not last.exists()
+    findings = (out / "report.md").read_text().split("## ")[1]
+    assert "Runs not finished" in findings and "dr_matched" in findings
     validate(scenes.load("demes_paper"), out, quick=True, workers=1, progress=False)
     for name, stamp in stamps.items():
         if name != "dr_matched":
@@ -126,6 +132,11 @@ def test_interrupted_validation_redoes_only_what_is_missing(report):
     for name, stamp in kept_stamps.items():  # finished states were not solved again
         assert (victim / name).stat().st_mtime_ns == stamp
     assert np.isfinite(float(read_csv(out / "headline.csv")[-1]["theta_matched [deg]"]))
+
+
+def test_report_only_needs_runs(tmp_path, capsys):
+    assert main(["validate", "--quick", "--out", str(tmp_path / "empty"), "--report-only"]) == 2
+    assert "holds no runs" in capsys.readouterr().err
 
 
 def test_csv_has_a_column_for_every_key_of_every_row(tmp_path):

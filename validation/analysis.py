@@ -47,6 +47,11 @@ class Analysis:
     level_costs: list[dict[str, Any]] = field(default_factory=list)
     net_limits: dict[str, Reference] = field(default_factory=dict)  # the nets' own refined limits
     limits: list[dict[str, Any]] = field(default_factory=list)  # DR's and the FEM's limits side by side
+
+    @property
+    def unfinished(self) -> list[str]:
+        """Runs of the plan without a complete record (interrupted, or never started)."""
+        return [r.label for r in self.plan.runs if not self.records.get(r.label, {}).get("complete")]
     experiment: Experiment | None = None  # the voltage runs (validation.experiment)
 
 

@@ -175,8 +175,10 @@ def cmd_validate(args: argparse.Namespace) -> int:
     if not 1 <= args.workers <= 64:
         raise DemesError(f"--workers {args.workers}: give 1 to 64 worker processes")
     out = writable_folder(args.out or f"reports/{scene.name}{'_quick' if args.quick else ''}")
+    if args.report_only and not (out / "runs").is_dir():
+        raise DemesError(f"--report-only: {out} holds no runs; run `demes validate` without it first")
     files = validate(scene, out, quick=args.quick, workers=args.workers, progress=not args.no_progress,
-                     scheduler=args.scheduler)
+                     scheduler=args.scheduler, solve=not args.report_only)
     print(f"wrote {out / 'index.html'} and {out / 'report.md'} in {files['elapsed_s']:.0f} s")
     return 0
 
@@ -258,6 +260,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("scene", nargs="?", default="demes_paper", help="scene .toml or built-in name (default: demes_paper)")
     p.add_argument("--out", help="report folder (default: reports/<scene>[_quick])")
     p.add_argument("--quick", action="store_true", help="coarse, short study (under 2 minutes; what the tests run)")
+    p.add_argument("--report-only", action="store_true",
+                   help="solve nothing: rewrite the report from the runs finished in --out (unfinished ones are named)")
     _cluster_options(p)
     p.add_argument("--set", action="append", metavar="KEY=VALUE", help="change a scene field")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")

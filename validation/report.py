@@ -232,6 +232,9 @@ def _findings(a: Analysis) -> list[str]:
         else:
             which = [m.upper() for m in ("dr", "fem") if not np.isfinite(r[f"time_{m}"])]
             out.append(f"{r['shape_error']:.1%} shape error is not reached by {' and '.join(which)} in this study.")
+    if a.unfinished:
+        out.append(f"Runs not finished when this report was written (their missing states are left out): "
+                   f"{', '.join(a.unfinished)}.")
     return out
 
 

@@ -15,14 +15,16 @@ from .runner import run_plan
 
 
 def validate(scene: scenes.Scene, out_dir: Path, quick: bool = False, workers: int = 2,
-             progress: bool = True, scheduler: str | None = None) -> dict[str, Path]:
+             progress: bool = True, scheduler: str | None = None, solve: bool = True) -> dict[str, Path]:
     """Validate DR against the FEM reference on ``scene`` and write ``out_dir``; returns the
     report's files. Finished runs found in ``out_dir`` are kept (resume). The runs go to the
     Dask cluster at ``scheduler`` (``tcp://host:8786``), else to a LocalCluster of ``workers``
-    processes (``workers <= 1``: this process)."""
+    processes (``workers <= 1``: this process). ``solve=False`` solves nothing: the report is
+    written from the states already in ``out_dir``, and names the runs that are not finished."""
     t0 = time.perf_counter()
     plan = build_plan(quick)
-    run_plan(plan, scene.to_dict(), out_dir, workers=workers, progress=progress, scheduler=scheduler)
+    if solve:
+        run_plan(plan, scene.to_dict(), out_dir, workers=workers, progress=progress, scheduler=scheduler)
     a = analyse(plan, out_dir)
     fig_dir = out_dir / "figures"
     figs = {
