@@ -78,19 +78,24 @@ def _nanmax(a, b):
 
 
 @njit(cache=True, error_model="numpy")
-def residual(st, P):
-    """st.R = (loads - dE/dx) at free DOFs. Returns (largest element force, max |R_i|), N."""
-    R, G, loads, free = st.R, st.G, st.loads, st.free
-    fmax = gradient(st.X, P, G, st.D)
+def collect(R, G, loads, free, n):
+    """R = (loads - G) at free DOFs of the n real nodes. Returns max |R_i|, N."""
     rmax2 = 0.0
-    for i in range(P.n):
+    for i in range(n):
         r2 = 0.0
         for c in range(3):
             r = (loads[i, c] - G[i, c]) * free[i, c]
             R[i, c] = r
             r2 += r * r
         rmax2 = _nanmax(rmax2, r2)
-    return fmax, math.sqrt(rmax2)
+    return math.sqrt(rmax2)
+
+
+@njit(cache=True, error_model="numpy")
+def residual(st, P):
+    """st.R = (loads - dE/dx) at free DOFs. Returns (largest element force, max |R_i|), N."""
+    fmax = gradient(st.X, P, st.G, st.D)
+    return fmax, collect(st.R, st.G, st.loads, st.free, P.n)
 
 
 @njit(cache=True, error_model="numpy")
@@ -135,15 +140,6 @@ def start(st, P, half_safety):
 
 
 @njit(cache=True, error_model="numpy")
-def _damp(st, P, scheme):
-    if scheme == dmp.VISCOUS:
-        return dmp.viscous(st, P)
-    if scheme == dmp.FIRE:
-        return dmp.fire(st, P)
-    return dmp.kinetic(st, P)
-
-
-@njit(cache=True, error_model="numpy")
 def run(st, P, cfg):
     """Advance up to ``cfg.max_steps`` leapfrog steps with the damping ``cfg.damping``.
 
@@ -161,8 +157,14 @@ def run(st, P, cfg):
 
     Returns (reason, steps, restarts, largest element force, max residual).
     """
+    # Records are unpacked here once: a compiled call that takes a record increments the
+    # reference count of each of its arrays (atomically) on entry and decrements it on exit
+    # unless numba can prove it needless, which costs about 0.5 us per record per call; the
+    # per-step calls below take arrays or records that numba prunes (issue 13).
     n = P.n
-    X, V, M, watched, segments = st.X, st.V, st.M, st.watched, st.segments
+    X, V, R, G, D, M = st.X, st.V, st.R, st.G, st.D, st.M
+    loads, free, watched, segments = st.loads, st.free, st.watched, st.segments
+    scheme = cfg.damping
     tensor = st.D.shape[0] > 0
     contact_distance = cfg.contact_distance
     steps = 0
@@ -175,14 +177,20 @@ def run(st, P, cfg):
     moved_list = 0.0
     moved_check = 0.0
     while steps < cfg.max_steps:
-        how = _damp(st, P, cfg.damping)
+        if scheme == dmp.VISCOUS:
+            how = dmp.viscous(st, n)
+        elif scheme == dmp.FIRE:
+            how = dmp.fire(st, n)
+        else:
+            how = dmp.kinetic(st, n)
         if how != dmp.GOING:
             restarts += 1
             if how == dmp.MOVED_BACK:
-                residual(st, P)
+                gradient(X, P, G, D)
+                collect(R, G, loads, free, n)
                 if tensor:
                     build_masses(st, cfg.half_safety)
-            dmp.accelerate(V, st.R, st.Minv, st.free, n, 0.0, 0.5)
+            dmp.accelerate(V, R, st.Minv, free, n, 0.0, 0.5)
         step_max2 = 0.0
         watch_max2 = 0.0
         mom_max2 = 0.0
@@ -200,7 +208,8 @@ def run(st, P, cfg):
         refresh = steps % cfg.mass_every == 0
         if refresh:
             stiffness(X, P, st.S, not tensor)
-        fmax, rmax = residual(st, P)
+        fmax = gradient(X, P, G, D)
+        rmax = collect(R, G, loads, free, n)
         if tensor or refresh:
             build_masses(st, cfg.half_safety)
         step_max = math.sqrt(step_max2)

@@ -124,14 +124,14 @@ def triangle_local(xl, gN, par, gl, want_grad):
     return par[AREA] * par[EH] / (2.0 * par[LAM]) * w
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", inline="always")
 def _gather(X, idx, xl):
     for a in range(3):
         for i in range(3):
             xl[a, i] = X[idx[a], i]
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", inline="always")
 def triangle_gradient(X, idx, gN, par, G, D, xl, gl):
     """Add one triangle's energy gradient to G (N) and, if D has rows, its link-like stiffness
     blocks (linear law). xl, gl: (3, 3) scratch. Returns the largest nodal force, N."""
