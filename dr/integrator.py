@@ -5,7 +5,8 @@ scaled to it. The loop works on a named :class:`State` (arrays, changed in place
 Masses are symmetric 3x3 per node, stored as (xx, yy, zz, xy, xz, yz). With ``tensor`` masses
 they are built from the direction-dependent stiffness of links and cables (EA/L0 e e^T along,
 T/L across) plus an isotropic part for beams; a frame node is then heavy only along the frame,
-not across it, which is what limits the step count. They are rebuilt every step: a light
+not across it, which is what limits the step count. They are rebuilt whenever the nodes may
+have moved ``drift`` mm since the last rebuild (every step while they move fast): a light
 frame node moving across its links turns them by degrees per step, and a stale tensor would
 let the axial stiffness leak into the light direction. Without, they are Barnes' scalar
 masses f dt^2/2 S, updated every ``mass_every`` steps.
@@ -59,6 +60,7 @@ class Settings(NamedTuple):
     force_floor: float  # smallest force scale, N
     runaway: float  # largest step of a stable run, mm
     mass_every: int  # steps between refreshes of the stiffness bounds
+    drift: float  # mm the nodes may move before the tensor masses are rebuilt (0: every step)
 
 
 def new_state(X: np.ndarray, free: np.ndarray, loads: np.ndarray, tensor: bool,
@@ -153,7 +155,9 @@ def run(st, P, cfg):
     ``runaway`` mm in one step. Contact is tested with a Verlet list: pairs within reach
     d + 2 skin are listed again whenever the ``watched`` nodes may have moved a skin, and the
     listed pairs are tested whenever they may have moved d/4, so nothing passes through
-    unseen. The stiffness bounds behind the masses are refreshed every ``mass_every`` steps.
+    unseen. The stiffness bounds behind the masses are refreshed every ``mass_every`` steps,
+    and tensor masses rebuilt once the nodes may have moved ``cfg.drift`` mm (the sum of the
+    largest step of each step) since the last rebuild.
 
     Returns (reason, steps, restarts, largest element force, max residual).
     """
@@ -166,6 +170,7 @@ def run(st, P, cfg):
     loads, free, watched, segments = st.loads, st.free, st.watched, st.segments
     scheme = cfg.damping
     tensor = st.D.shape[0] > 0
+    no_blocks = np.zeros((0, 6))  # an empty D: the gradient without the tensor blocks
     contact_distance = cfg.contact_distance
     steps = 0
     restarts = 0
@@ -176,6 +181,7 @@ def run(st, P, cfg):
                   else np.zeros((0, 2), np.int64))
     moved_list = 0.0
     moved_check = 0.0
+    drifted = math.inf  # rebuild at the first step
     while steps < cfg.max_steps:
         if scheme == dmp.VISCOUS:
             how = dmp.viscous(st, n)
@@ -208,9 +214,13 @@ def run(st, P, cfg):
         refresh = steps % cfg.mass_every == 0
         if refresh:
             stiffness(X, P, st.S, not tensor)
-        fmax = gradient(X, P, G, D)
+        drifted += math.sqrt(step_max2)
+        rebuild = tensor and drifted > cfg.drift
+        if rebuild:
+            drifted = 0.0
+        fmax = gradient(X, P, G, D if rebuild or not tensor else no_blocks)
         rmax = collect(R, G, loads, free, n)
-        if tensor or refresh:
+        if rebuild or refresh:
             build_masses(st, cfg.half_safety)
         step_max = math.sqrt(step_max2)
         moved_list += math.sqrt(watch_max2)

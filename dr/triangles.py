@@ -213,8 +213,9 @@ def gradient(X, P, G, D):
     xl = np.zeros((3, 3))
     gl = np.zeros((3, 3))
     fmax = 0.0
-    for k in range(P.tri_idx.shape[0]):
-        fmax = max(fmax, triangle_gradient(X, P.tri_idx[k], P.tri_grad[k], P.tri_par[k], G, D, xl, gl))
+    idx, grad, par = P.tri_idx, P.tri_grad, P.tri_par  # once: a field read in the loop costs a reference count
+    for k in range(idx.shape[0]):
+        fmax = max(fmax, triangle_gradient(X, idx[k], grad[k], par[k], G, D, xl, gl))
     return fmax
 
 
