@@ -74,7 +74,7 @@ def build(scene: Scene, prestretch: float | None = None) -> DemesModel:
     if scene.membrane.law != "linear":
         raise SceneError(
             f"membrane.law = {scene.membrane.law!r}: the DR net models the 'linear' (Hookean cable) "
-            "law only; use dr.membrane_net = 'triangles' or the FEM reference for 'neo-hookean'"
+            f"law only; use dr.membrane_net = 'triangles' or the FEM reference for {scene.membrane.law!r}"
         )
     outline = scene.outline
     s_right, s_left = scene.base_region()
@@ -253,7 +253,7 @@ def _build_triangles(scene: Scene, lam: float) -> DemesModel:
     m.support(mesh.frame_nodes[held])
     mem = scene.membrane
     m.add_triangles(mesh.triangles, E=mem.E, thickness=mem.thickness, prestretch=lam, law=mem.law,
-                    tension_only=mem.tension_only)
+                    tension_only=mem.tension_only, gent_jm=mem.gent_jm)
     strip = frame.model == "strip"
     m.add_rod(mesh.frame_nodes, EA=frame.EA, EI=frame.EI, closed=True,
               EI_strong=frame.EI_strong if strip else None, GJ=frame.GJ if strip else None,

@@ -69,7 +69,7 @@ class Packed(NamedTuple):
     strip_blocks: np.ndarray  # (k, 5, 6) scratch: mass blocks in the material frame
     tri_idx: np.ndarray  # (t, 3) membrane triangles
     tri_grad: np.ndarray  # (t, 3, 2) flat shape-function gradients, 1/mm
-    tri_par: np.ndarray  # (t, 5) see dr.triangles (area, E h, lambda, tension-only, law)
+    tri_par: np.ndarray  # (t, 6) see dr.triangles (area, E h, lambda, tension-only, law, Gent Jm)
     rod_idx: np.ndarray  # (r, 7) rod vertex stencils, see dr.rod
     rod_par: np.ndarray  # (r, dr.rod.N_PAR)
     rod_blocks: np.ndarray  # (r, 7, 6) scratch: mass blocks in the vertex's material frame

@@ -98,7 +98,7 @@ class Model:
         self._offsets: list[tuple[int, float]] = []
         self._offset_ref: list[np.ndarray] = []  # their reference positions, mm
         self._bonds: list[tuple[np.ndarray, np.ndarray]] = []  # (3 nodes, 3 weights)
-        self._triangles: list[tuple[np.ndarray, float, float, float, bool, int]] = []
+        self._triangles: list[tuple[np.ndarray, float, float, float, bool, int, float]] = []
         self._rods: list[_Rod] = []
         self._dielectric: tuple[np.ndarray, np.ndarray] | None = None  # triangles, flat areas
         self.dielectric_coefficient = 0.0  # c (N/mm), see add_dielectric
@@ -320,13 +320,13 @@ class Model:
             self.add_link(c[:n_edges], nxt, ea, role="frame")
 
     def add_triangles(self, triangles: np.ndarray, *, E: float, thickness: float, prestretch: float,
-                      law: str = "linear", tension_only: bool = True) -> None:
+                      law: str = "linear", tension_only: bool = True, gent_jm: float = np.inf) -> None:
         """Add constant-strain membrane triangles (:mod:`dr.triangles`) over node triples.
 
         The reference triangles lie in the plane z = const of the nodes (the flat film); the
         rest state is that shrunk by 1 / ``prestretch``. ``law`` is 'linear' (the link-net
-        law, lattice directions at 0, 60, 120 deg from the x axis) or 'neo-hookean'. Units:
-        E in MPa, the mounted thickness in mm.
+        law, lattice directions at 0, 60, 120 deg from the x axis), 'neo-hookean' or 'gent'
+        (with ``gent_jm``, Gent's Jm > 0). Units: E in MPa, the mounted thickness in mm.
         """
         t = np.asarray(triangles)
         if t.ndim != 2 or t.shape[1] != 3 or t.shape[0] == 0:
@@ -341,7 +341,8 @@ class Model:
         if np.any(area <= 1e-12 * np.ptp(self.nodes[:, :2]) ** 2):
             raise DRError("a membrane triangle has no area: its three nodes lie on one line")
         self._triangles.append((t, _positive("membrane E (MPa)", E), _positive("membrane thickness (mm)", thickness),
-                                _positive("pre-stretch", prestretch), bool(tension_only), tri_element.LAWS[law]))
+                                _positive("pre-stretch", prestretch), bool(tension_only), tri_element.LAWS[law],
+                                _positive("Gent Jm", gent_jm) if law == "gent" else np.inf))
 
     def add_dielectric(self, triangles: np.ndarray, coefficient: float) -> None:
         """Make the film over node triples ``triangles`` an ideal dielectric (:mod:`dr.dielectric`).
@@ -397,16 +398,17 @@ class Model:
 
     def _pack_triangles(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         if not self._triangles:
-            return np.zeros((0, 3), np.int64), np.zeros((0, 3, 2)), np.zeros((0, 5))
+            return np.zeros((0, 3), np.int64), np.zeros((0, 3, 2)), np.zeros((0, tri_element.N_PAR))
         idx, grads, pars = [], [], []
-        for t, E, h, lam, tension_only, law in self._triangles:
+        for t, E, h, lam, tension_only, law, jm in self._triangles:
             g, area = tri_element.shape_gradients(self.nodes[t][:, :, :2])
-            par = np.zeros((t.shape[0], 5))
+            par = np.zeros((t.shape[0], tri_element.N_PAR))
             par[:, tri_element.AREA] = area
             par[:, tri_element.EH] = E * h
             par[:, tri_element.LAM] = lam
             par[:, tri_element.TONLY] = float(tension_only)
             par[:, tri_element.LAW] = law
+            par[:, tri_element.JM] = jm
             idx.append(t)
             grads.append(g)
             pars.append(par)
@@ -456,7 +458,7 @@ class Model:
         """Multiply the rest lengths of clusters, membrane links and triangles by ``factor``
         (> 0): how a pre-stretch is changed on a built model (lambda_old / lambda_new)."""
         f = _positive("rest-length factor", factor)
-        self._triangles = [(t, E, h, lam / f, to, law) for t, E, h, lam, to, law in self._triangles]
+        self._triangles = [(t, E, h, lam / f, to, law, jm) for t, E, h, lam, to, law, jm in self._triangles]
         self._clusters = [(c, ea, L0 * f, to) for c, ea, L0, to in self._clusters]
         self._links = [(i, j, ea, np.where(frame, L0, L0 * f), to, frame) for i, j, ea, L0, to, frame in self._links]
 

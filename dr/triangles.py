@@ -7,14 +7,17 @@ gradients) is constant, and its energy is the flat area times the law's W(F) (N/
 * ``LINEAR``: the three-family link-net law W = E h / (2 lambda) sum_k eps_k^2,
   eps_k = lambda |F m_k| - 1 for the lattice directions m_k at 0, 60 and 120 deg, and with
   ``tension_only`` a family in compression carries nothing;
-* ``NEO_HOOKEAN``: incompressible, mu = E / 3, W = mu h / 2 (lambda^2 tr C + 1 / (lambda^4 det C) - 3),
-  C = F^T F.
+* ``NEO_HOOKEAN``: incompressible, mu = E / 3, W = mu h / 2 (I1 - 3) with the first invariant
+  I1 = lambda^2 tr C + 1 / (lambda^4 det C), C = F^T F;
+* ``GENT``: W = -mu h Jm / 2 ln(1 - (I1 - 3) / Jm), stiffening near the locking (Jm the
+  parameter); infinite past it. One function carries both incompressible laws: P is the
+  neo-Hookean P times f'(I1 - 3), f the law's function of I1 - 3 (docs/fem_reference.md).
 
 Forces are the exact gradient of that energy. Stiffness bounds for the masses: a family k acts
 like a link along f_k = F m_k joining the nodes with weights c_ka = grad N_a . m_k, so its
 Hessian is (c c^T) (x) (E h A lambda e e^T + E h A eps_k / |f_k| (I - e e^T)) and each node's share
 is bounded by |c_ka| sum_b |c_kb| times that block (Cauchy-Schwarz). The neo-Hookean triangle
-gets the Gershgorin row sums of its Hessian (central differences of the exact gradient).
+and Gent triangles get the Gershgorin row sums of their Hessian (central differences of the exact gradient).
 """
 
 from __future__ import annotations
@@ -27,11 +30,12 @@ from numba import njit
 from .blocks import add_block
 from .vec import add_to, get, norm, scale
 
-LINEAR, NEO_HOOKEAN = 0, 1
-LAWS = {"linear": LINEAR, "neo-hookean": NEO_HOOKEAN}
+LINEAR, NEO_HOOKEAN, GENT = 0, 1, 2
+LAWS = {"linear": LINEAR, "neo-hookean": NEO_HOOKEAN, "gent": GENT}
 
-# columns of Packed.tri_par
-AREA, EH, LAM, TONLY, LAW = range(5)
+# columns of Packed.tri_par (JM: Gent's Jm, read by the Gent law only)
+AREA, EH, LAM, TONLY, LAW, JM = range(6)
+N_PAR = 6
 
 _C = math.cos(math.pi / 3.0)
 _S = math.sin(math.pi / 3.0)
@@ -74,8 +78,9 @@ def _strain(par, lf):
 
 
 @njit(cache=True, error_model="numpy")
-def _neo_hookean(xl, gN, par, P):
-    """W (N/mm) and P = dW/dF into P (3, 2) (skipped if P has no rows)."""
+def _incompressible(xl, gN, par, P):
+    """W (N/mm) of the neo-Hookean or Gent law and P = dW/dF into P (3, 2) (skipped if P has
+    no rows)."""
     F = np.zeros((3, 2))
     for a in range(3):
         for i in range(3):
@@ -88,24 +93,33 @@ def _neo_hookean(xl, gN, par, P):
     g12 = F[0, 0] * F[0, 1] + F[1, 0] * F[1, 1] + F[2, 0] * F[2, 1]
     det = g11 * g22 - g12 * g12
     l2 = lam * lam
-    W = 0.5 * mu_h * (l2 * (g11 + g22) + 1.0 / (l2 * l2 * det) - 3.0)
+    x = l2 * (g11 + g22) + 1.0 / (l2 * l2 * det) - 3.0  # I1 - 3
+    if par[LAW] == NEO_HOOKEAN:
+        f, df = x, 1.0
+    else:
+        jm = par[JM]
+        r = 1.0 - x / jm
+        if r <= 0.0:  # past the lock: no finite energy
+            f, df = np.inf, np.inf
+        else:
+            f, df = -jm * np.log(r), 1.0 / r
     if P.shape[0] > 0:
         # d(1/det C)/dF = -2 F C^-1 / det C, C^-1 = [[g22, -g12], [-g12, g11]] / det
         s = 1.0 / (l2 * l2 * det * det)
         for i in range(3):
             a, b = F[i, 0], F[i, 1]
-            P[i, 0] = mu_h * (l2 * a - s * (a * g22 - b * g12))
-            P[i, 1] = mu_h * (l2 * b - s * (b * g11 - a * g12))
-    return W
+            P[i, 0] = df * mu_h * (l2 * a - s * (a * g22 - b * g12))
+            P[i, 1] = df * mu_h * (l2 * b - s * (b * g11 - a * g12))
+    return 0.5 * mu_h * f
 
 
 @njit(cache=True, error_model="numpy")
 def triangle_local(xl, gN, par, gl, want_grad):
     """Energy (N mm) of one triangle from its local rows xl (3, 3); with ``want_grad`` its
     gradient is added to gl (3, 3)."""
-    if par[LAW] == NEO_HOOKEAN:
+    if par[LAW] != LINEAR:
         P = np.zeros((3 if want_grad else 0, 2))
-        W = _neo_hookean(xl, gN, par, P)
+        W = _incompressible(xl, gN, par, P)
         if want_grad:
             for a in range(3):
                 for i in range(3):
@@ -137,7 +151,7 @@ def triangle_gradient(X, idx, gN, par, G, D, xl, gl):
     blocks (linear law). xl, gl: (3, 3) scratch. Returns the largest nodal force, N."""
     _gather(X, idx, xl)
     gl[:] = 0.0
-    if par[LAW] == NEO_HOOKEAN:
+    if par[LAW] != LINEAR:
         triangle_local(xl, gN, par, gl, True)
     else:  # one pass over the families for the forces and the blocks
         k_axial = par[AREA] * par[EH] * par[LAM]
@@ -163,9 +177,9 @@ def triangle_gradient(X, idx, gN, par, G, D, xl, gl):
 def triangle_stiffness(X, idx, gN, par, S, with_links, xl):
     """Add a per-node scalar stiffness bound (N/mm) to S: the linear law's link-like bound when
     ``with_links`` (tensor masses take it from :func:`triangle_gradient` instead), the
-    neo-Hookean triangle's Gershgorin row sums always. xl: (3, 3) scratch."""
+    neo-Hookean and Gent triangles' Gershgorin row sums always. xl: (3, 3) scratch."""
     _gather(X, idx, xl)
-    if par[LAW] == NEO_HOOKEAN:
+    if par[LAW] != LINEAR:
         H = np.zeros((9, 9))
         gp = np.zeros((3, 3))
         gm = np.zeros((3, 3))

@@ -10,7 +10,14 @@ Laws (``membrane.law``), energies per unit flat area (N/mm), h the mounted thick
 * ``"linear"``: W = E h / (2 lambda) sum_k eps_k^2, eps_k = lambda sqrt(m_k^T g m_k) - 1 over the
   lattice directions m_k at 0, 60 and 120 deg (the DR link net's continuum limit); with
   ``tension_only`` a family in compression (eps_k <= 0) carries nothing.
-* ``"neo-hookean"``: W = mu h / 2 (lambda^2 tr g + 1 / (lambda^4 det g) - 3), mu = E / 3.
+* ``"neo-hookean"``: W = mu h / 2 (I1 - 3), mu = E / 3, with the incompressible film's first
+  invariant I1 = lambda^2 tr g + 1 / (lambda^4 det g) (the thickness stretch from det = 1);
+* ``"gent"``: W = -mu h Jm / 2 ln(1 - (I1 - 3) / Jm), Jm = ``membrane.gent_jm``: neo-Hookean at
+  small I1 - 3, stiffening without bound as I1 - 3 approaches Jm (the chains' locking). Past the
+  lock the energy is infinite (W = inf, its derivatives inf: the solvers' checks stop there).
+
+The two incompressible laws share one code path: W = mu h / 2 f(I1 - 3) with f(x) = x or
+-Jm ln(1 - x / Jm), the chain rule through I1's closed-form derivatives in g.
 """
 
 from __future__ import annotations
@@ -21,7 +28,7 @@ import numpy as np
 LATTICE_ANGLES_DEG = (0.0, 60.0, 120.0)
 """Directions of the DR lattice lines (the base side is the x axis)."""
 
-LAW_IDS = {"linear": 0, "neo-hookean": 1}
+LAW_IDS = {"linear": 0, "neo-hookean": 1, "gent": 2}
 
 _ANGLES = np.radians(LATTICE_ANGLES_DEG)
 _DIRECTIONS = np.column_stack([np.cos(_ANGLES) ** 2, np.sin(_ANGLES) ** 2,
@@ -30,9 +37,10 @@ _DIRECTIONS = np.column_stack([np.cos(_ANGLES) ** 2, np.sin(_ANGLES) ** 2,
 
 
 @numba.njit(cache=True)
-def _law(law: int, g: np.ndarray, lam: float, E: float, h: float, tension_only: bool,
+def _law(law: int, g: np.ndarray, lam: float, E: float, h: float, tension_only: bool, jm: float,
          dW: np.ndarray, d2W: np.ndarray, order: int) -> float:
-    """W (N/mm) at metric entries g = (g11, g22, g12); fills dW (3,) and d2W (3, 3) for order >= 1."""
+    """W (N/mm) at metric entries g = (g11, g22, g12); fills dW (3,) and d2W (3, 3) for order >= 1.
+    ``jm``: Gent's Jm (only read by the Gent law)."""
     for a in range(3):
         dW[a] = 0.0
         for b in range(3):
@@ -59,17 +67,26 @@ def _law(law: int, g: np.ndarray, lam: float, E: float, h: float, tension_only: 
     c = E * h / 6.0  # mu h / 2
     q = lam ** -4
     D = g[0] * g[1] - g[2] * g[2]
-    W = c * (lam * lam * (g[0] + g[1]) + q / D - 3.0)
+    x = lam * lam * (g[0] + g[1]) + q / D - 3.0  # I1 - 3
+    if law == 1:
+        W, f1, f2 = c * x, c, 0.0  # c f, c f', c f''
+    else:
+        r = 1.0 - x / jm
+        if r <= 0.0:  # past the lock: no finite energy
+            W, f1, f2 = np.inf, np.inf, np.inf
+        else:
+            W, f1, f2 = -c * jm * np.log(r), c / r, c / (jm * r * r)
     if order >= 1:
         dD = (g[1], g[0], -2.0 * g[2])
-        fD, fDD = -c * q / (D * D), 2.0 * c * q / (D * D * D)
+        iD, iDD = -q / (D * D), 2.0 * q / (D * D * D)  # d(q / D)/dD, d2(q / D)/dD2
+        dI = (iD * dD[0] + lam * lam, iD * dD[1] + lam * lam, iD * dD[2])  # dI1 / dg
         for a in range(3):
-            dW[a] = fD * dD[a] + (c * lam * lam if a < 2 else 0.0)
+            dW[a] = f1 * dI[a]
             for b in range(3):
-                d2W[a, b] = fDD * dD[a] * dD[b]
-        d2W[0, 1] += fD
-        d2W[1, 0] += fD
-        d2W[2, 2] += -2.0 * fD
+                d2W[a, b] = f1 * iDD * dD[a] * dD[b] + f2 * dI[a] * dI[b]
+        d2W[0, 1] += f1 * iD
+        d2W[1, 0] += f1 * iD
+        d2W[2, 2] += -2.0 * f1 * iD
     return W
 
 
@@ -87,7 +104,7 @@ def _metric_gradient(F: np.ndarray, Dg: np.ndarray) -> None:
 
 @numba.njit(cache=True)
 def element_terms(u: np.ndarray, dofs: np.ndarray, G: np.ndarray, dx: np.ndarray, law: int,
-                  lam: float, E: float, h: float, tension_only: bool, order: int):
+                  lam: float, E: float, h: float, tension_only: bool, jm: float, order: int):
     """Energies, forces and tangents of all elements.
 
     Parameters
@@ -131,7 +148,7 @@ def element_terms(u: np.ndarray, dofs: np.ndarray, G: np.ndarray, dx: np.ndarray
             g[0] = F[0, 0] ** 2 + F[1, 0] ** 2 + F[2, 0] ** 2
             g[1] = F[0, 1] ** 2 + F[1, 1] ** 2 + F[2, 1] ** 2
             g[2] = F[0, 0] * F[0, 1] + F[1, 0] * F[1, 1] + F[2, 0] * F[2, 1]
-            w = _law(law, g, lam, E, h, tension_only, dW, d2W, order)
+            w = _law(law, g, lam, E, h, tension_only, jm, dW, d2W, order)
             W[e, q] = w
             We[e] += w * dx[e, q]
             if order < 1:
@@ -167,8 +184,8 @@ def element_terms(u: np.ndarray, dofs: np.ndarray, G: np.ndarray, dx: np.ndarray
 
 
 @numba.njit(cache=True)
-def point_stress(F: np.ndarray, law: int, lam: float, E: float, h: float, tension_only: bool
-                 ) -> np.ndarray:
+def point_stress(F: np.ndarray, law: int, lam: float, E: float, h: float, tension_only: bool,
+                 jm: float) -> np.ndarray:
     """First Piola-Kirchhoff membrane stress P = dW/dF (npts, 3, 2), N/mm, at gradients F (npts, 3, 2)."""
     P = np.zeros(F.shape)
     g = np.zeros(3)
@@ -180,7 +197,7 @@ def point_stress(F: np.ndarray, law: int, lam: float, E: float, h: float, tensio
         g[0] = Fp[0, 0] ** 2 + Fp[1, 0] ** 2 + Fp[2, 0] ** 2
         g[1] = Fp[0, 1] ** 2 + Fp[1, 1] ** 2 + Fp[2, 1] ** 2
         g[2] = Fp[0, 0] * Fp[0, 1] + Fp[1, 0] * Fp[1, 1] + Fp[2, 0] * Fp[2, 1]
-        _law(law, g, lam, E, h, tension_only, dW, d2W, 1)
+        _law(law, g, lam, E, h, tension_only, jm, dW, d2W, 1)
         _metric_gradient(Fp, Dg)
         for i in range(3):
             for j in range(2):

@@ -17,6 +17,9 @@ Laws (``membrane.law``):
 * ``"neo-hookean"``: incompressible, mu = E / 3, W = mu h / 2 (tr C + 1 / det C - 3) with
   C = lambda^2 F^T F; the unstretched thickness is h lambda^2, so the mounted thickness is h.
   It has no tension-field relaxation: compressed regions are measured and reported.
+* ``"gent"``: W = -mu h Jm / 2 ln(1 - (I1 - 3) / Jm), I1 = tr C + 1 / det C: the neo-Hookean
+  film stiffening near its locking stretch (Jm = ``membrane.gent_jm``); as the neo-Hookean
+  law otherwise.
 """
 
 from __future__ import annotations
@@ -69,13 +72,15 @@ class Membrane:
         its DOF 3 i + c is component c of node i (vertices first, then edge nodes).
     law, E, h, tension_only
         ``membrane.law``, Young's modulus (MPa), mounted thickness (mm), slack links carry nothing.
+    jm
+        Gent's Jm (``membrane.gent_jm``), read by the Gent law only.
     """
 
-    def __init__(self, basis, law: str, E: float, h: float, tension_only: bool):
+    def __init__(self, basis, law: str, E: float, h: float, tension_only: bool, jm: float = np.inf):
         if law not in LAW_IDS:
             raise ValueError(f"membrane.law = {law!r} is not one of {', '.join(LAW_IDS)}")
         self.basis = basis
-        self.law, self.E, self.h, self.tension_only = law, E, h, tension_only
+        self.law, self.E, self.h, self.tension_only, self.jm = law, E, h, tension_only, jm
         locs = basis.doflocs[:, ::3]  # one location per node
         self.X = np.column_stack([locs[0], locs[1], np.zeros(locs.shape[1])])  # (nn, 3) mm
         # the scalar element on the same quadrature: its node numbering is the vector DOF / 3
@@ -95,7 +100,7 @@ class Membrane:
     def _terms(self, x: np.ndarray, lam: float, order: int):
         return element_terms(np.ascontiguousarray(x - self.X, dtype=float), self._dofs, self._grads,
                              self._dx, LAW_IDS[self.law], float(lam), float(self.E), float(self.h),
-                             bool(self.tension_only), order)
+                             bool(self.tension_only), float(self.jm), order)
 
     def deformation_gradient(self, x: np.ndarray) -> np.ndarray:
         """F (3, 2, nel, nqp) at the quadrature points for node positions x (nn, 3)."""
@@ -110,7 +115,7 @@ class Membrane:
             return MembraneState(F, W, None)
         flat = np.ascontiguousarray(np.moveaxis(F, (0, 1), (-2, -1)).reshape(-1, 3, 2))
         P = point_stress(flat, LAW_IDS[self.law], float(lam), float(self.E), float(self.h),
-                         bool(self.tension_only))
+                         bool(self.tension_only), float(self.jm))
         return MembraneState(F, W, np.moveaxis(P.reshape(*F.shape[2:], 3, 2), (-2, -1), (0, 1)))
 
     def energy(self, x: np.ndarray, lam: float) -> float:

@@ -355,9 +355,9 @@ def make_result(problem: DemesProblem, out: Outcome, requested: float, wall: flo
     if converged:
         message += (f"; {'stable' if stable else 'UNSTABLE'} (lowest eigenvalue {omega:.3g} N/mm^3)"
                     if lam > 1.0 else "; the flat state")
-    if scene.membrane.law == "neo-hookean" and compressed > 0.01:
+    if scene.membrane.law != "linear" and compressed > 0.01:
         status, converged = "compression", False
-        message += (f"; the neo-Hookean film is in compression over {100 * compressed:.1f} % of its "
+        message += (f"; the {scene.membrane.law} film is in compression over {100 * compressed:.1f} % of its "
                     "area: it would wrinkle, which this membrane model does not represent")
     if out.snaps:
         message += "; snapped through at " + ", ".join(

@@ -104,6 +104,20 @@ def permittivity_value(name: str, value: Any) -> float:
     return v
 
 
+GENT_JM_VHB = 6.0**2 + 2.0 / 6.0 - 3.0
+"""Gent's Jm for VHB: a uniaxial locking stretch of 6 (published fits), I1 - 3 = 33.3."""
+
+
+def gent_jm_value(name: str, value: Any) -> float:
+    v = _number(name, value)
+    if v <= 0:
+        raise SceneError(
+            f"{name} = {v:g} must be positive: it is the Gent law's limit of I1 - 3 (VHB about 33, "
+            "a uniaxial locking stretch of 6); a larger value is closer to neo-Hookean"
+        )
+    return v
+
+
 def prestretch_list(name: str, value: Any) -> tuple[float, ...]:
     if not isinstance(value, (list, tuple)) or not 0 < len(value) <= MAX_SWEEP:
         raise SceneError(f"{name} must be a list of 1 to {MAX_SWEEP} pre-stretch ratios, e.g. [1.1, 1.3, 1.5]")
@@ -322,9 +336,15 @@ class MembraneSpec(_Section):
     thickness: float = spec(0.05, positive, "mm", "film thickness in the mounted, flat state")
     law: str = spec(
         "linear",
-        one_of("linear", "neo-hookean"),
+        one_of("linear", "neo-hookean", "gent"),
         "",
-        "'linear': Hookean in the engineering strain from the rest state (the DR link law)",
+        "'linear': Hookean in the engineering strain from the rest state (the DR link law); "
+        "'neo-hookean' and 'gent' (locking): incompressible, mu = E / 3",
+    )
+    gent_jm: float = spec(
+        GENT_JM_VHB, gent_jm_value, "",
+        "Gent law's Jm = I1 - 3 at locking (default: VHB, uniaxial locking stretch 6); larger is "
+        "closer to neo-Hookean",
     )
     tension_only: bool = spec(True, boolean, "", "slack membrane carries no compression")
     permittivity: float = spec(

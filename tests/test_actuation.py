@@ -107,9 +107,9 @@ def test_flat_film_electrostatic_stress_is_maxwell(stretch):
 class FreeFilm:
     """A square quarter of a free film in its plane: symmetry planes x = 0, y = 0, z held."""
 
-    def __init__(self, n: int, mu: float, H: float):
+    def __init__(self, n: int, mu: float, H: float, law: str = "neo-hookean", jm: float = np.inf):
         basis = square_basis(n)
-        self.membrane = Membrane(basis, "neo-hookean", 3 * mu, H, tension_only=False)
+        self.membrane = Membrane(basis, law, 3 * mu, H, tension_only=False, jm=jm)
         self.dielectric = Dielectric(basis)
         X = self.membrane.X
         fixed = np.zeros(X.shape, bool)
@@ -230,16 +230,17 @@ def test_dr_and_fem_dielectric_energies_agree():
     assert m.dielectric_energy(x)[1] == pytest.approx(diel.current_area(x), rel=1e-12)
 
 
-def _dr_quarter_film(mu: float, H: float, prestretch: float, voltage: float | None):
-    """A DR quarter film of neo-Hookean triangles (symmetry planes x = 0, y = 0, z held), with
-    the dielectric at ``voltage`` (None: no dielectric term at all)."""
+def _dr_quarter_film(mu: float, H: float, prestretch: float, voltage: float | None,
+                     law: str = "neo-hookean", jm: float = np.inf):
+    """A DR quarter film of neo-Hookean (or Gent) triangles (symmetry planes x = 0, y = 0,
+    z held), with the dielectric at ``voltage`` (None: no dielectric term at all)."""
     import dr
 
     basis = square_basis(2)
     X = Dielectric(basis).X
     m = dr.Model(X)
     m.add_triangles(basis.mesh.t.T, E=3 * mu, thickness=H / prestretch**2, prestretch=prestretch,
-                    law="neo-hookean", tension_only=False)
+                    law=law, tension_only=False, gent_jm=jm)
     if voltage is not None:
         m.add_dielectric(basis.mesh.t.T, coefficient(voltage, H / prestretch**2))
     m.support(np.arange(len(X)), axes="z")

@@ -2,7 +2,6 @@
 
 import csv
 
-import numpy as np
 import pyvista as pv
 
 import dr

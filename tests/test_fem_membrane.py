@@ -13,6 +13,7 @@ from fem_reference.model import MembraneProblem
 from fem_reference.newton import newton
 
 E, H = 1.0, 0.05  # MPa, mm
+JM = 10.0  # Gent's Jm: a strongly stiffening film (VHB about 33)
 ELEMENTS = {"P1": ElementTriP1, "P2": ElementTriP2}
 
 
@@ -20,13 +21,14 @@ def prestress(law: str, lam: float) -> float:
     """Isotropic membrane tension (N/mm) of the flat pre-stretched state, by hand from W."""
     if law == "linear":  # sum_k m_k m_k^T = 3/2 I for three directions 60 deg apart
         return 1.5 * E * H * (lam - 1.0)
-    return E / 3.0 * H * (lam**2 - lam**-4)  # mu h (lambda^2 - lambda^-4)
+    neo = E / 3.0 * H * (lam**2 - lam**-4)  # mu h (lambda^2 - lambda^-4)
+    return neo if law == "neo-hookean" else neo / (1.0 - (2 * lam**2 + lam**-4 - 3.0) / JM)
 
 
 def square_membrane(n: int, element: str, law: str, tension_only: bool = True):
     mesh = MeshTri.init_tensor(np.linspace(0, 10.0, n + 1), np.linspace(0, 10.0, n + 1))
     basis = Basis(mesh, ElementVector(ELEMENTS[element](), 3))
-    return Membrane(basis, law, E, H, tension_only)
+    return Membrane(basis, law, E, H, tension_only, JM)
 
 
 def pressure_centre_deflection(n: int, element: str, law: str, lam: float, p: float) -> float:
@@ -49,7 +51,7 @@ def series_centre_deflection(a: float, T: float, p: float, terms: int = 201) -> 
     return float(16 * p * a**2 / (np.pi**4 * T) * np.sum(signs / (M * N * (M**2 + N**2))))
 
 
-@pytest.mark.parametrize("law", ["linear", "neo-hookean"])
+@pytest.mark.parametrize("law", ["linear", "neo-hookean", "gent"])
 def test_flat_prestress_matches_closed_form(law):
     mem = square_membrane(4, "P1", law)
     lam = 1.4
@@ -108,7 +110,8 @@ def test_patch_reproduces_homogeneous_deformation(element, law):
 
 
 @pytest.mark.parametrize("element", ["P1", "P2"])
-@pytest.mark.parametrize("law,tension_only", [("linear", True), ("linear", False), ("neo-hookean", False)])
+@pytest.mark.parametrize("law,tension_only", [("linear", True), ("linear", False), ("neo-hookean", False),
+                                             ("gent", False)])
 def test_tangent_and_forces_match_finite_differences(element, law, tension_only):
     mem = square_membrane(3, element, law, tension_only)
     rng = np.random.default_rng(7)

@@ -17,13 +17,14 @@ from scenes.mesh import membrane_mesh
 from test_dr_elements import fd_gradient, kernel_gradient
 
 
-@pytest.mark.parametrize("law, tension_only", [("linear", True), ("linear", False), ("neo-hookean", False)])
+@pytest.mark.parametrize("law, tension_only", [("linear", True), ("linear", False), ("neo-hookean", False),
+                                               ("gent", False)])
 def test_triangle_forces_are_the_gradient_of_its_energy(law, tension_only):
     nodes = np.array([[0, 0, 0], [10, 0, 0], [5, 8, 0], [15, 8, 0], [-3, 7, 0]], float)
     m = dr.Model(nodes)
     m.support([0])
     m.add_triangles([[0, 1, 2], [1, 3, 2], [0, 2, 4]], E=1.0, thickness=0.05, prestretch=1.3,
-                    law=law, tension_only=tension_only)
+                    law=law, tension_only=tension_only, gent_jm=10.0)  # a strongly stiffening Gent film
     x = nodes + np.random.default_rng(0).normal(scale=1.0, size=nodes.shape)
     g = kernel_gradient(m, x)
     assert np.abs(g).max() > 1e-3
@@ -49,10 +50,12 @@ def test_rod_forces_are_the_gradient_of_its_energy(strip, closed):
 
 def _coarse(model: str, law: str = "linear", **changes) -> scenes.Scene:
     return scenes.paper_demes(prestretch=1.3, frame_model=model, **{
-        "dr.membrane_net": "triangles", "mesh.divisions": 8, "membrane.law": law, **changes})
+        "dr.membrane_net": "triangles", "mesh.divisions": 8, "membrane.law": law, "membrane.gent_jm": 10.0,
+        **changes})
 
 
-@pytest.mark.parametrize("model, law", [("strip", "linear"), ("paper", "linear"), ("strip", "neo-hookean")])
+@pytest.mark.parametrize("model, law", [("strip", "linear"), ("paper", "linear"), ("strip", "neo-hookean"),
+                                        ("strip", "gent")])
 def test_dr_triangles_and_fem_have_one_energy(model, law):
     """At an arbitrary state the DR model and the FEM problem store the same energy, part by
     part: the same mesh, membrane law, rod, bond and supports."""

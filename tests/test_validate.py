@@ -57,6 +57,43 @@ def test_reference_is_the_richardson_extrapolation_of_the_levels(report):
         assert float(r["extrapolated"]) == pytest.approx(est.extrapolated, rel=1e-9, abs=1e-12)
 
 
+def test_reference_table_and_level_costs_restate_the_levels(report):
+    out, _, _ = report
+    long = {(float(r["prestretch"]), r["quantity"]): r for r in read_csv(out / "reference.csv")}
+    table = read_csv(out / "reference_table.csv")
+    assert table
+    for row in table:
+        lam = float(row["prestretch"])
+        for q, unit in (("bending_angle", "deg"), ("apex_z", "mm"), ("energy_total", "N mm")):
+            assert float(row[f"{q} [{unit}]"]) == float(long[(lam, q)]["extrapolated"])
+            assert float(row[f"{q}_error [{unit}]"]) == float(long[(lam, q)]["error"])
+    fem = {r["run"]: r for r in read_csv(out / "states.csv") if r["run"].startswith("fem_r")}
+    levels = read_csv(out / "fem_levels.csv")
+    assert [int(r["level"]) for r in levels] == [0, 1]
+    assert int(levels[1]["free_dofs"]) > 3 * int(levels[0]["free_dofs"])  # halving h: ~4x the nodes
+    assert all(f"fem_r{r['level']}" in fem for r in levels)
+
+
+def test_dr_limit_is_the_extrapolation_of_its_own_refinement(report):
+    out, _, _ = report
+    states = read_csv(out / "states.csv")
+    chain = [r.label for r in build_plan(quick=True).by_group("drconv")]
+    limits = read_csv(out / "limits.csv")
+    assert [float(r["prestretch"]) for r in limits] == list(build_plan(quick=True).sweep)
+    for row in limits:
+        lam = float(row["prestretch"])
+        angles = [float(next(s for s in states if s["run"] == label and float(s["prestretch"]) == lam)["bending_angle [deg]"])
+                  for label in chain]
+        assert float(row["theta_dr [deg]"]) == pytest.approx(fem_reference.richardson(angles).extrapolated, abs=1e-9)
+
+
+def test_the_nets_refined_limits_are_model_form_rows(report):
+    out, _, _ = report
+    rows = [r for r in read_csv(out / "error_budget.csv") if "each extrapolated" in r["what"]]
+    assert {r["what"].split()[0] for r in rows} == {"links", "clustered"}
+    assert all(np.isfinite(float(r["bending_angle_diff [deg]"])) for r in rows)
+
+
 def test_every_hard_case_has_an_outcome(report):
     out, _, _ = report
     rows = read_csv(out / "hard_cases.csv")
@@ -143,3 +180,26 @@ def test_first_contact_extrapolates_the_levels_brackets():
     assert rows[-1]["value"] == pytest.approx(exact, abs=1e-12)
     assert rows[-1]["order"] == pytest.approx(2.0)
     assert rows[-1]["error"] >= 5e-4
+
+
+def test_report_is_against_the_experiment_with_its_csv(report):
+    """The voltage runs: every sweep in experiment.csv, one summary row per run; the swept
+    flattening voltage is the closed form's (the frame's buckling tension is small), the
+    calibrated film's closed form is the experiment's 2.25 kV, and the stroke grows with V."""
+    out, _, _ = report
+    md = (out / "report.md").read_text()
+    assert "## Against the experiment" in md
+    summary = {r["run"]: r for r in read_csv(out / "experiment_summary.csv")}
+    assert set(summary) == {"exp_fem_table1", "exp_dr_table1", "exp_fem_calibrated"}
+    fem = summary["exp_fem_table1"]
+    assert float(fem["flat_voltage [V]"]) == pytest.approx(float(fem["flat_closed_form [V]"]), rel=0.01)
+    assert float(summary["exp_fem_calibrated"]["flat_closed_form [V]"]) == pytest.approx(2250.0, rel=1e-9)
+    states = read_csv(out / "experiment.csv")
+    for label in summary:
+        rows = [r for r in states if r["run"] == label]
+        assert float(rows[0]["voltage [V]"]) == 0.0 and len(rows) >= 3
+        stroke = [float(r["stroke [deg]"]) for r in rows]
+        assert stroke[0] == 0.0 and all(b >= a - 1e-6 for a, b in zip(stroke, stroke[1:]))
+    for name in ("experiment_stroke_voltage", "experiment_energy_stroke"):
+        assert (out / "figures" / f"{name}.png").exists()
+    assert (out / "runs" / "exp_fem_table1" / "exp_fem_table1.pvd").exists()

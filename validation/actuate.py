@@ -132,6 +132,11 @@ class Characteristics:
     notes: list[str] = field(default_factory=list)
 
 
+EQUILIBRIA = ("converged", "compression")
+"""Statuses of the states a sweep's characteristics are read from: 'compression' is a converged
+equilibrium of a neo-Hookean or Gent film that is compressed in places (it would wrinkle, which
+the status reports); its shape is the solver's answer all the same."""
+
 STEEP_FACTOR = 2.0
 """The energy rises steeply where its slope against stroke is this many times the initial one."""
 
@@ -150,7 +155,7 @@ def steep_rise(stroke: np.ndarray, energy: np.ndarray) -> float:
 
 def characteristics(rows: Sequence[dict]) -> Characteristics:
     """Flattening and pull-in voltages, stroke at 1 kV and the steep rise, from the CSV rows."""
-    ok = [r for r in rows if r["status"] == "converged" or r is rows[-1]]
+    ok = [r for r in rows if r["status"] in EQUILIBRIA or r is rows[-1]]
     c = Characteristics()
     if not ok:
         return c

@@ -8,10 +8,15 @@ from typing import Sequence
 
 import numpy as np
 
-from .actuate import PAPER_FLAT_V, PAPER_STEEP_STROKE, PAPER_SUBSTANTIAL_V
+from .actuate import PAPER_FLAT_V, PAPER_STEEP_STROKE, PAPER_SUBSTANTIAL_V, characteristics
 from .figures import _label, _save, plt
 
 COLORS = {"dr": "tab:blue", "fem": "k"}
+
+
+def _name(solver: str) -> str:
+    """Legend name: 'DR' / 'FEM' for a solver, other run names as given."""
+    return solver.upper() if solver in COLORS else solver
 
 
 def _series(rows: Sequence[dict], key: str) -> np.ndarray:
@@ -24,9 +29,9 @@ def stroke_voltage(runs: dict[str, Sequence[dict]], path: Path) -> Path:
     top = 0.0
     for solver, rows in runs.items():
         v, stroke = _series(rows, "voltage") / 1000, _series(rows, "stroke")
-        ax.plot(v, stroke, "o-", ms=3, color=COLORS.get(solver), label=solver.upper())
+        ax.plot(v, stroke, "o-", ms=3, color=COLORS.get(solver), label=_name(solver))
         if rows and rows[-1]["status"] == "pull_in":
-            ax.plot(v[-1], stroke[-1], "x", ms=10, color="tab:red", label=f"{solver.upper()} pull-in")
+            ax.plot(v[-1], stroke[-1], "x", ms=10, color="tab:red", label=f"{_name(solver)} pull-in")
         top = max(top, float(np.nanmax(np.abs(_series(rows, "bending_angle")[:1]))) if rows else 0.0)
     ax.axvline(PAPER_SUBSTANTIAL_V / 1000, color="tab:orange", ls=":", label="experiment: substantial change (~1 kV)")
     ax.axvline(PAPER_FLAT_V / 1000, color="tab:green", ls="--", label="experiment: flat (~2.25 kV)")
@@ -38,13 +43,20 @@ def stroke_voltage(runs: dict[str, Sequence[dict]], path: Path) -> Path:
 
 
 def energy_stroke(runs: dict[str, Sequence[dict]], path: Path) -> Path:
-    """E_cap and E_DR (film, frame) against stroke per solver; the paper's steep rises marked."""
+    """E_cap and E_DR (film, frame) against stroke per solver; the paper's steep rises marked,
+    and the model's (:func:`validation.actuate.steep_rise`, a triangle on E_cap)."""
     fig, ax = plt.subplots(figsize=(6.4, 4.2))
     for solver, rows in runs.items():
         stroke, c = _series(rows, "stroke"), COLORS.get(solver)
-        ax.plot(stroke, _series(rows, "energy_capacitor"), "o-", ms=3, color=c, label=f"{solver.upper()} E_cap")
-        ax.plot(stroke, _series(rows, "energy_DR"), "s--", ms=3, color=c, mfc="none", label=f"{solver.upper()} E_DR")
-        ax.plot(stroke, _series(rows, "energy_frame"), ":", color=c, label=f"{solver.upper()} E_DR, frame")
+        cap = _series(rows, "energy_capacitor")
+        lines = ax.plot(stroke, cap, "o-", ms=3, color=c, label=f"{_name(solver)} E_cap")
+        steep = characteristics(rows).steep_stroke if rows else float("nan")
+        if np.isfinite(steep):
+            ax.plot(steep, np.interp(steep, stroke, cap), "v", ms=9, color=lines[0].get_color(),
+                    label=f"{_name(solver)}: E_cap steep from {steep:.0f} deg")
+        c = lines[0].get_color()
+        ax.plot(stroke, _series(rows, "energy_DR"), "s--", ms=3, color=c, mfc="none", label=f"{_name(solver)} E_DR")
+        ax.plot(stroke, _series(rows, "energy_frame"), ":", color=c, label=f"{_name(solver)} E_DR, frame")
     for kind, s in PAPER_STEEP_STROKE.items():
         ax.axvline(s, color="tab:orange" if kind == "numerical" else "tab:green", ls=":",
                    label=f"paper: steep rise, {kind} ({s:.0f} deg)")

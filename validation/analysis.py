@@ -14,8 +14,10 @@ from results import Result
 
 from fem_reference import richardson
 
+from . import experiment
 from .compare import CURVE_SAMPLES, Reference, build_reference, state_metrics
-from .plan import Plan, Run
+from .experiment import Experiment
+from .plan import NETS, Plan, Run, doubling_chain
 from .runner import load_states, run_record
 from .sweep import not_reached
 
@@ -41,11 +43,16 @@ class Analysis:
     reference_rows: list[dict[str, Any]] = field(default_factory=list)
     branch_rows: list[dict[str, Any]] = field(default_factory=list)
     first_contact: list[dict[str, Any]] = field(default_factory=list)
+    reference_table: list[dict[str, Any]] = field(default_factory=list)
+    level_costs: list[dict[str, Any]] = field(default_factory=list)
+    net_limits: dict[str, Reference] = field(default_factory=dict)  # the nets' own refined limits
+    limits: list[dict[str, Any]] = field(default_factory=list)  # DR's and the FEM's limits side by side
+    experiment: Experiment | None = None  # the voltage runs (validation.experiment)
 
 
 def analyse(plan: Plan, out_dir: Path) -> Analysis:
     """Read every run of ``plan`` from ``out_dir`` and compute the report's tables."""
-    states = {r.label: load_states(out_dir / "runs" / r.label, r.prestretches) for r in plan.runs}
+    states = {r.label: load_states(out_dir / "runs" / r.label, r.prestretches) for r in plan.runs if not r.voltages}
     records = {r.label: run_record(out_dir / "runs" / r.label) or {} for r in plan.runs}
     references = {}
     branch_rows = []
@@ -62,7 +69,7 @@ def analyse(plan: Plan, out_dir: Path) -> Analysis:
     # DR's own refined limit: the matched model on meshes doubling in density, tightest tolerance
     speed_dr = [r for r in plan.by_group("speed") if r.solver == "dr"]
     tight = min((r.changes["dr.tolerance"] for r in speed_dr), default=None)
-    chain = _doubling_chain(sorted({r.changes["mesh.divisions"] for r in speed_dr}))
+    chain = doubling_chain(sorted({r.changes["mesh.divisions"] for r in speed_dr}))
     dr_limit = None
     if chain:
         dr_states = [states[_speed_label(n, tight)].get(plan.speed_prestretch) for n in chain]
@@ -76,22 +83,14 @@ def analyse(plan: Plan, out_dir: Path) -> Analysis:
     _budget(a, chain, tight)
     _hard(a)
     _reference_rows(a)
+    _level_costs(a)
+    _limits(a)
+    a.experiment = experiment.analyse(plan, out_dir)
     return a
 
 
 def _speed_label(n: int, tol: float) -> str:
     return f"speed_dr_n{n}_tol{tol:.0e}"
-
-
-def _doubling_chain(meshes: list[int]) -> list[int]:
-    """The longest chain n, 2n, 4n, ... among the mesh densities."""
-    best: list[int] = []
-    for n in meshes:
-        chain = [n]
-        while chain[-1] * 2 in meshes:
-            chain.append(chain[-1] * 2)
-        best = max(best, chain, key=len)
-    return best if len(best) >= 2 else []
 
 
 def _row(a: Analysis, run: Run, lam: float, res: Result) -> dict[str, Any]:
@@ -103,7 +102,7 @@ def _row(a: Analysis, run: Run, lam: float, res: Result) -> dict[str, Any]:
 
 def _state_rows(a: Analysis) -> None:
     for run in a.plan.runs:
-        if run.group in ("sweep", "reference", "budget"):
+        if run.group in ("sweep", "reference", "budget", "drconv", "netconv"):
             for lam, res in sorted(a.states[run.label].items()):
                 a.state_rows.append(_row(a, run, lam, res))
 
@@ -190,6 +189,14 @@ def _budget(a: Analysis, chain: list[int], tight: float | None) -> None:
             if s is not None:
                 add("discretisation", f"DR matched, {n} divisions vs its extrapolated limit",
                     a.dr_limit.shape_error(s)[0], s.bending_angle - a.dr_limit.values["bending_angle"])
+        for net in NETS:
+            net_states = [a.states.get(f"netconv_{net}_n{n}", {}).get(lam) for n in chain]
+            net_limit = build_reference(tuple(range(len(chain))), net_states) if all(net_states) else None
+            if net_limit is not None:
+                a.net_limits[net] = net_limit
+                add("model form", f"{net} net vs triangles (DR, strip frame), each extrapolated over {chain} divisions",
+                    metrics_between_references(net_limit, a.dr_limit),
+                    net_limit.values["bending_angle"] - a.dr_limit.values["bending_angle"])
         if ref is not None:
             add("discretisation", "DR triangles (extrapolated) vs FEM (extrapolated): one discrete problem, two limits",
                 metrics_between_references(a.dr_limit, ref),
@@ -241,12 +248,62 @@ def _hard(a: Analysis) -> None:
                            "message": "the path stopped before this pre-stretch"})
 
 
+REFERENCE_QUANTITIES = ("bending_angle", "apex_y", "apex_z", "energy_total")
+"""The scalars of the reference table (with their error estimates)."""
+
+
 def _reference_rows(a: Analysis) -> None:
-    """The reference per pre-stretch: values per level, observed order, extrapolation, error."""
+    """The reference per pre-stretch: values per level, observed order, extrapolation, error;
+    and one row per pre-stretch of the extrapolated values with their errors."""
     for lam, ref in sorted(a.references.items()):
+        row: dict[str, Any] = {"prestretch": lam, "levels": "-".join(f"r{k}" for k in ref.levels),
+                               "order_bending_angle": ref.orders["bending_angle"],
+                               "shape_uncertainty": ref.shape_uncertainty}
+        for q in REFERENCE_QUANTITIES:
+            row[q], row[f"{q}_error"] = ref.values[q], ref.errors[q]
+        a.reference_table.append(row)
         for q, values in ref.level_values.items():
             a.reference_rows.append({"prestretch": lam, "quantity": q, **{f"r{k}": v for k, v in zip(ref.levels, values)},
                                      "order": ref.orders[q], "extrapolated": ref.values[q], "error": ref.errors[q]})
+
+
+def _limits(a: Analysis) -> None:
+    """Per pre-stretch, DR's refined limit (the matched model on doubling meshes) beside the
+    FEM's: one discrete problem refined by two solvers. 'agree' when the bending angles differ
+    by less than the sum of their error estimates."""
+    runs = a.plan.by_group("drconv")
+    for lam in a.plan.sweep:
+        states = [a.states[r.label].get(lam) for r in runs]
+        dr_ref = build_reference(tuple(range(len(runs))), states) if runs and all(states) else None
+        fem_ref = a.references.get(lam)
+        if dr_ref is None and fem_ref is None:
+            continue
+        row: dict[str, Any] = {"prestretch": lam}
+        for key, ref in (("dr", dr_ref), ("fem", fem_ref)):
+            row[f"theta_{key}"] = ref.values["bending_angle"] if ref else np.nan
+            row[f"theta_{key}_error"] = ref.errors["bending_angle"] if ref else np.nan
+            row[f"shape_uncertainty_{key}"] = ref.shape_uncertainty if ref else np.nan
+        if dr_ref is not None and fem_ref is not None:
+            row["theta_diff"] = row["theta_dr"] - row["theta_fem"]
+            row["shape_distance"] = metrics_between_references(dr_ref, fem_ref)
+            row["agree"] = bool(abs(row["theta_diff"]) <= row["theta_dr_error"] + row["theta_fem_error"])
+        a.limits.append(row)
+
+
+def _level_costs(a: Analysis) -> None:
+    """What each FEM reference level costs: unknowns, Newton iterations and wall time per state
+    (medians over its converged states along the sweep, each warm-started from the previous)."""
+    for k in a.plan.reference_levels:
+        done = [r for r in a.states[f"fem_r{k}"].values() if r.converged and r.prestretch > 1.0]
+        if not done:
+            continue
+        a.level_costs.append({
+            "level": k, "free_dofs": done[0].info.get("n_free_dofs", np.nan),
+            "elements": done[0].info.get("n_elements", np.nan), "states": len(done),
+            "newton_per_state": float(np.median([r.iterations for r in done])),
+            "time_per_state": float(np.median([r.wall_time for r in done])),
+            "time_total": float(sum(r.wall_time for r in done)),
+        })
 
 
 BRANCH_JUMP = 1.5

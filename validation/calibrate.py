@@ -11,7 +11,11 @@ modulus and pre-stretch, which also set the shape at 0 V; so the fit is done in 
 1. the film modulus ``membrane.E`` from the flattening voltage (closed form, ``scipy.optimize.brentq``);
 2. the frame stiffness ``frame.E`` (all strip stiffnesses in proportion, i.e. the strip's
    effective thickness) so that the bending angle at 0 V stays the one of the scene as given (the
-   numerical 150 % state that matched the physical sample), by brentq on FEM solves.
+   numerical 150 % state that matched the physical sample). Every law's energy is linear in its
+   modulus (film: membrane.E; frame: frame.E through EA, EI, GJ), so at 0 V the equilibria depend
+   on the two moduli only through their ratio: scaling frame.E as membrane.E keeps the shape
+   exactly (it was found so by brentq on FEM solves before: 289 MPa for the exact 289.1). The
+   check sweep measures the kept angle as a residual.
 
 The fitted scene is then checked by a FEM voltage sweep: its flattening voltage and stroke at
 1 kV are the residuals. Sensitivities are d ln(V_flat) / d ln(parameter).
@@ -27,7 +31,7 @@ from scipy.optimize import brentq
 from scenes import Scene, SceneError
 from scenes.electric import mounted_thickness
 
-from .actuate import PAPER_FLAT_V, PAPER_SUBSTANTIAL_V, characteristics, row
+from .actuate import PAPER_FLAT_V, PAPER_SUBSTANTIAL_V, Characteristics, characteristics, row
 from .electromechanics import (equibiaxial_mechanical_stress, flat_film_tension, gent_jm,
                                zero_tension_voltage)
 
@@ -37,6 +41,9 @@ PUBLISHED_VHB_MU = (0.013, 0.015)
 PHYSICAL_PRESTRETCH = 2.0
 """The physical sample's pre-stretch (200 %)."""
 
+CHECK_VOLTAGES = tuple(float(v) for v in np.arange(0.0, 1.4 * PAPER_FLAT_V + 1, 125.0))
+"""Voltages (V) of the check sweep of a fitted scene: past the target flattening voltage."""
+
 VHB_LOCKING_STRETCH = 6.0
 """A published Gent locking stretch of VHB (Jm from it: :func:`gent_jm`)."""
 
@@ -44,7 +51,7 @@ VHB_LOCKING_STRETCH = 6.0
 def flattening_voltage(scene: Scene) -> float:
     """Closed-form flattening voltage (V) of a scene: the zero-tension voltage of its flat film."""
     m = scene.membrane
-    tension = flat_film_tension(m.law, m.E, m.thickness, scene.prestretch)
+    tension = flat_film_tension(m.law, m.E, m.thickness, scene.prestretch, m.gent_jm)
     return zero_tension_voltage(tension, mounted_thickness(scene), m.permittivity)
 
 
@@ -71,30 +78,6 @@ def fit_membrane_modulus(scene: Scene, target: float = PAPER_FLAT_V) -> float:
     return float(np.exp(brentq(f, e0 - 12.0, e0 + 12.0, xtol=1e-12)))
 
 
-def fit_frame_modulus(scene: Scene, theta_target: float, refinement: int = 0,
-                      progress=None) -> tuple[float, list[tuple[float, float]]]:
-    """``frame.E`` (MPa) whose FEM bending angle at 0 V is ``theta_target`` (deg), and the
-    (frame.E, angle) pairs tried."""
-    import fem_reference
-
-    tried: list[tuple[float, float]] = []
-
-    def angle(log_e: float) -> float:
-        s = scene.updated(**{"frame.E": float(np.exp(log_e))})
-        res = fem_reference.solve(s, refinement)
-        theta = res.bending_angle if res.converged else float("nan")
-        tried.append((float(np.exp(log_e)), theta))
-        if progress is not None:
-            progress(f"  frame.E = {np.exp(log_e):.4g} MPa: bending angle {theta:.2f} deg ({res.status})")
-        if not np.isfinite(theta):
-            raise SceneError(f"the FEM did not converge at frame.E = {np.exp(log_e):.4g} MPa: {res.message}")
-        return theta - theta_target
-
-    e0 = np.log(scene.frame.E)
-    lo, hi = e0 - np.log(30.0), e0 + np.log(3.0)  # a softer frame curls more
-    return float(np.exp(brentq(angle, lo, hi, xtol=2e-3))), tried
-
-
 @dataclass
 class Calibration:
     """Fitted values, sensitivities, residuals and what they imply."""
@@ -105,15 +88,14 @@ class Calibration:
     sensitivities: dict[str, float]
     residuals: dict[str, float] = field(default_factory=dict)
     implications: list[str] = field(default_factory=list)
-    tried: list[tuple[float, float]] = field(default_factory=list)
 
 
 def implications(scene: Scene, fitted_E: float) -> list[str]:
     """What the fitted film modulus means for VHB and for the 200 % -> 150 % gap."""
     m = scene.membrane
-    tension = flat_film_tension(m.law, fitted_E, m.thickness, scene.prestretch)
+    tension = flat_film_tension(m.law, fitted_E, m.thickness, scene.prestretch, m.gent_jm)
     stress = tension / m.thickness
-    table = flat_film_tension(m.law, m.E, m.thickness, scene.prestretch) / m.thickness
+    table = flat_film_tension(m.law, m.E, m.thickness, scene.prestretch, m.gent_jm) / m.thickness
     lines = [f"the fit puts the flat film's pre-stress at {1000 * stress:.1f} kPa "
              f"(Table I at {scene.prestretch:g}: {1000 * table:.0f} kPa, {table / stress:.1f} times more)"]
     for label, jm in (("neo-Hookean", None), (f"Gent (locking stretch {VHB_LOCKING_STRETCH:g})", gent_jm(VHB_LOCKING_STRETCH))):
@@ -124,12 +106,10 @@ def implications(scene: Scene, fitted_E: float) -> list[str]:
     return lines
 
 
-def calibrate(scene: Scene, refinement: int = 0, voltages: tuple[float, ...] | None = None,
-              progress=print) -> Calibration:
-    """Fit ``membrane.E`` and ``frame.E`` (see the module docstring) and check them by a FEM
-    voltage sweep."""
+def fit(scene: Scene, refinement: int = 0, progress=print) -> tuple[Scene, Calibration, float]:
+    """Fit ``membrane.E`` and ``frame.E`` (see the module docstring): the fitted scene, the
+    calibration (no residuals yet) and the scene's own bending angle at 0 V (deg)."""
     from fem_reference import solve
-    from fem_reference.actuation import voltage_sweep
 
     base = solve(scene, refinement)
     if not base.converged:
@@ -138,30 +118,42 @@ def calibrate(scene: Scene, refinement: int = 0, voltages: tuple[float, ...] | N
              f"flattening voltage {flattening_voltage(scene):.0f} V")
     e_film = fit_membrane_modulus(scene)
     progress(f"membrane.E = {e_film:.4g} MPa puts the flattening voltage at {PAPER_FLAT_V:.0f} V")
-    soft = scene.updated(**{"membrane.E": e_film})
-    e_frame, tried = fit_frame_modulus(soft, base.bending_angle, refinement, progress)
-    fitted = soft.updated(**{"frame.E": e_frame})
+    e_frame = scene.frame.E * e_film / scene.membrane.E  # the modulus ratio, hence the 0 V shape, kept
+    progress(f"frame.E = {e_frame:.4g} MPa keeps the ratio of the moduli, hence the 0 V shape")
+    fitted = scene.updated(**{"membrane.E": e_film, "frame.E": e_frame})
     cal = Calibration(e_film, e_frame, flattening_voltage(fitted),
                       {k: sensitivity(fitted, k) for k in ("membrane.E", "loading.prestretch",
-                                                           "membrane.thickness", "frame.E")},
-                      tried=tried)
-    volts = voltages or tuple(float(v) for v in np.arange(0.0, 1.4 * PAPER_FLAT_V + 1, 125.0))
+                                                           "membrane.thickness", "frame.E")})
+    cal.implications = implications(scene, e_film)
+    cal.implications.append(
+        f"frame.E = {e_frame:.4g} MPa keeps the 0 V shape: the strip's bending stiffness scaled by "
+        f"{e_frame / scene.frame.E:.3g}, i.e. an effective thickness "
+        f"{scene.frame.thickness * (e_frame / scene.frame.E) ** (1 / 3):.3f} mm for {scene.frame.thickness:g} mm")
+    return fitted, cal, base.bending_angle
+
+
+def residuals(ch: Characteristics, theta_target: float) -> dict[str, float]:
+    """Residuals of the targets from the fitted scene's voltage sweep (its characteristics)."""
+    return {
+        "flat_voltage_V": ch.flat_voltage - PAPER_FLAT_V,
+        "bending_angle_0V_deg": ch.theta0 - theta_target,
+        "stroke_at_1kV_deg": ch.stroke_at_1kV,
+        "stroke_at_1kV_fraction": ch.stroke_at_1kV / ch.theta0 if ch.theta0 else float("nan"),
+    }
+
+
+def calibrate(scene: Scene, refinement: int = 0, voltages: tuple[float, ...] | None = None,
+              progress=print) -> Calibration:
+    """Fit ``membrane.E`` and ``frame.E`` and check them by a FEM voltage sweep."""
+    from fem_reference.actuation import voltage_sweep
+
+    fitted, cal, theta_target = fit(scene, refinement, progress)
+    volts = voltages or CHECK_VOLTAGES
     rows, theta0 = [], None
     for res in voltage_sweep(fitted, volts, refinement):
         theta0 = res.bending_angle if theta0 is None else theta0
         rows.append(row(res, theta0))
-    ch = characteristics(rows)
-    cal.residuals = {
-        "flat_voltage_V": ch.flat_voltage - PAPER_FLAT_V,
-        "bending_angle_0V_deg": ch.theta0 - base.bending_angle,
-        "stroke_at_1kV_deg": ch.stroke_at_1kV,
-        "stroke_at_1kV_fraction": ch.stroke_at_1kV / ch.theta0 if ch.theta0 else float("nan"),
-    }
-    cal.implications = implications(scene, e_film)
-    cal.implications.append(
-        f"frame.E = {e_frame:.4g} MPa keeps the 0 V shape: the strip's bending stiffness scaled by "
-        f"{e_frame / scene.frame.E:.3g}, i.e. an effective thickness {scene.frame.thickness * (e_frame / scene.frame.E) ** (1 / 3):.3f} mm "
-        f"for {scene.frame.thickness:g} mm")
+    cal.residuals = residuals(characteristics(rows), theta_target)
     return cal
 
 

@@ -164,7 +164,7 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
     atomic_write_text(out / "calibration.txt", text + "\n")
     atomic_write_text(out / "calibration.json", json.dumps(
         {"membrane_E": cal.membrane_E, "frame_E": cal.frame_E, "sensitivities": cal.sensitivities,
-         "residuals": cal.residuals, "implications": cal.implications, "tried": cal.tried}, indent=1))
+         "residuals": cal.residuals, "implications": cal.implications}, indent=1))
     return 0
 
 

@@ -57,46 +57,68 @@ def free_film_voltage(stretch, mu: float, thickness: float, permittivity: float,
     return thickness / lam**2 * np.sqrt(equibiaxial_mechanical_stress(lam, mu, jm) / eps)
 
 
-def free_film_pull_in(mu: float, thickness: float, permittivity: float,
-                      jm: float | None = None) -> tuple[float, float]:
-    """(stretch, voltage V) at the peak of the free film's voltage-stretch curve: the pull-in.
+def gent_lock_stretch(jm: float) -> float:
+    """Equibiaxial stretch at which the Gent film locks: 2 lambda^2 + lambda^-4 - 3 = Jm."""
+    return float(brentq(lambda l: 2 * l**2 + l**-4 - 3.0 - jm, 1.0, np.sqrt(jm + 3.0), xtol=1e-14))
 
-    Neo-Hookean: lambda = 4^(1/6), V = 0.687 H sqrt(mu / eps). With a Gent law the curve rises
-    again near the locking stretch (the film re-stiffens), so the first peak is returned.
+
+def free_film_pull_in(mu: float, thickness: float, permittivity: float,
+                      jm: float | None = None) -> tuple[float, float] | None:
+    """(stretch, voltage V) at the first peak of the free film's voltage-stretch curve: the
+    pull-in; None if the curve rises all the way to the lock (no pull-in).
+
+    Neo-Hookean: lambda = 4^(1/6), V = 0.687 H sqrt(mu / eps). A Gent film re-stiffens near its
+    locking stretch: for large Jm the curve peaks (later and higher than neo-Hookean), falls to a
+    valley and rises again (the snap-through of Zhao, Hong & Suo 2007); for Jm below about 7.3
+    the peak and the valley merge and the curve rises monotonically: no pull-in.
     """
     if jm is None:
         lam = 4.0 ** (1.0 / 6.0)
         return lam, float(free_film_voltage(lam, mu, thickness, permittivity))
+    lock = gent_lock_stretch(jm)
+    lam = np.linspace(1.0, lock, 20001)[1:-1]
+    v = free_film_voltage(lam, mu, thickness, permittivity, jm)
+    falls = np.flatnonzero(np.diff(v) <= 0.0)
+    if falls.size == 0:
+        return None
+    k = falls[0]  # the first peak lies within one grid step either side of lam[k]
     opt = minimize_scalar(lambda l: -free_film_voltage(l, mu, thickness, permittivity, jm),
-                          bounds=(1.0 + 1e-9, 3.0), method="bounded", options={"xatol": 1e-12})
+                          bounds=(lam[max(k - 1, 0)], lam[k + 1]), method="bounded",
+                          options={"xatol": 1e-12})
     return float(opt.x), float(-opt.fun)
 
 
 def free_film_stretch(voltage: float, mu: float, thickness: float, permittivity: float,
                       jm: float | None = None) -> float:
-    """Equibiaxial stretch of a free film at ``voltage`` on the stable branch (below pull-in).
+    """Equibiaxial stretch of a free film at ``voltage`` on the stable branch (below pull-in;
+    a Gent film without pull-in has one branch up to its lock).
 
     Raises
     ------
     ValueError
         If ``voltage`` is above the pull-in voltage (no stable equilibrium).
     """
-    lam_p, v_p = free_film_pull_in(mu, thickness, permittivity, jm)
-    if voltage > v_p:
-        raise ValueError(f"voltage {voltage:g} V is above the pull-in voltage {v_p:.6g} V")
+    peak = free_film_pull_in(mu, thickness, permittivity, jm)
+    if peak is not None and voltage > peak[1]:
+        raise ValueError(f"voltage {voltage:g} V is above the pull-in voltage {peak[1]:.6g} V")
     if voltage == 0:
         return 1.0
+    top = peak[0] if peak is not None else gent_lock_stretch(jm) * (1 - 1e-12)
     return float(brentq(lambda l: free_film_voltage(l, mu, thickness, permittivity, jm) - voltage,
-                        1.0, lam_p, xtol=1e-14, rtol=1e-14))
+                        1.0, top, xtol=1e-14, rtol=1e-14))
 
 
-def flat_film_tension(law: str, E: float, thickness: float, prestretch: float) -> float:
+def flat_film_tension(law: str, E: float, thickness: float, prestretch: float,
+                      jm: float | None = None) -> float:
     """Isotropic tension (N/mm) of the flat film mounted at ``prestretch`` (mounted thickness
-    h mm, E MPa): the link-net law 3/2 E h (lambda - 1); neo-Hookean E/3 h (lambda^2 - lambda^-4)."""
+    h mm, E MPa): the link-net law 3/2 E h (lambda - 1); neo-Hookean E/3 h (lambda^2 - lambda^-4);
+    Gent (``jm``) that divided by 1 - (I1 - 3) / Jm."""
     if law == "linear":
         return 1.5 * E * thickness * (prestretch - 1.0)
     if law == "neo-hookean":
-        return E / 3.0 * thickness * (prestretch**2 - prestretch**-4)
+        return thickness * float(equibiaxial_mechanical_stress(prestretch, E / 3.0))
+    if law == "gent":
+        return thickness * float(equibiaxial_mechanical_stress(prestretch, E / 3.0, jm))
     raise ValueError(f"membrane law {law!r} has no closed-form flat tension here")
 
 

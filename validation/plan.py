@@ -7,7 +7,7 @@ runs only; executing them is :mod:`validation.runner`, comparing them :mod:`vali
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, Sequence
 
 import numpy as np
 
@@ -17,6 +17,7 @@ PAPER_DR = {"frame.model": "paper", "dr.membrane_net": "clustered"}  # the paper
 MATCHED = {"frame.model": "strip", "dr.membrane_net": "triangles"}
 LINKS = {"frame.model": "strip", "dr.membrane_net": "links"}  # the paper's lattice, strip frame
 REFERENCE = {"frame.model": "strip"}  # the FEM reference: continuum membrane + strip
+NETS = {"links": LINKS, "clustered": {**PAPER_DR, "frame.model": "strip"}}  # the paper's nets on the strip
 
 HARD_FEM_TIME_LIMIT = {False: 240.0, True: 60.0}
 """Wall-time budget (s) of a hard case's FEM run, full and quick mode."""
@@ -39,11 +40,18 @@ class Run:
     refinement
         FEM refinement level.
     group
-        'sweep' (the main comparison), 'reference' (FEM levels), 'speed', 'budget', 'hard'.
+        'sweep' (the main comparison), 'reference' (FEM levels), 'speed', 'budget', 'drconv'
+        (DR's own refinement), 'netconv' (the nets' own refinement), 'hard', 'experiment'
+        (voltage sweeps).
     title
         What the run shows, for tables.
     cold
         Solve each pre-stretch from scratch (timings of the speed study) instead of a sweep.
+    voltages
+        A voltage run (group 'experiment', :mod:`validation.experiment`): these voltages (V) at
+        the scene's pre-stretch, one warm-started path; ``prestretches`` is then empty.
+    calibrate
+        Fit the scene to the experiment before the voltage run (:func:`validation.calibrate.fit`).
     """
 
     label: str
@@ -54,6 +62,8 @@ class Run:
     group: str = "sweep"
     title: str = ""
     cold: bool = False
+    voltages: tuple[float, ...] = ()
+    calibrate: bool = False
 
 
 @dataclass(frozen=True)
@@ -131,11 +141,36 @@ def build_plan(quick: bool = False) -> Plan:
         for tol in dr_tols:
             runs.append(Run(f"speed_dr_n{n}_tol{tol:.0e}", "dr", {**MATCHED, "mesh.divisions": n, "dr.tolerance": tol},
                             (speed_lam,), group="speed", title=f"DR matched, {n} divisions, tol {tol:.0e}", cold=True))
+    # DR's own refinement over the whole sweep: its limit beside the FEM's at every pre-stretch
+    tight = min(dr_tols)
+    chain = doubling_chain(dr_meshes)
+    runs += [Run(f"drconv_n{n}", "dr", {**MATCHED, "mesh.divisions": n, "dr.tolerance": tight}, sweep, group="drconv",
+                 title=f"DR matched, {n} divisions, tol {tight:.0e}") for n in chain]
+    # the paper's nets refined by the same doubling of the mesh: their own limits, so that the
+    # model-form rows compare limits, not two discretisation errors
+    for n in chain:
+        for net, variant in NETS.items():
+            runs.append(Run(f"netconv_{net}_n{n}", "dr", {**variant, "mesh.divisions": n, "dr.tolerance": tight},
+                            (speed_lam,), group="netconv", title=f"DR {net} net, strip frame, {n} divisions"))
     for k in levels[:3]:  # from the flat state each time: r3 would add minutes for one point
         runs.append(Run(f"speed_fem_r{k}", "fem", {**coarse, **REFERENCE}, (speed_lam,), refinement=k, group="speed",
                         title=f"FEM, refinement {k}", cold=True))
     runs += hard_cases(coarse, hard_lams, quick)
+    from .experiment import experiment_runs  # it builds Runs: imported here, not at the top
+
+    runs += experiment_runs(coarse, quick)
     return Plan(tuple(runs), sweep, speed_lam, levels)
+
+
+def doubling_chain(meshes: Sequence[int]) -> list[int]:
+    """The longest chain n, 2n, 4n, ... among the mesh densities."""
+    best: list[int] = []
+    for n in meshes:
+        chain = [n]
+        while chain[-1] * 2 in meshes:
+            chain.append(chain[-1] * 2)
+        best = max(best, chain, key=len)
+    return best if len(best) >= 2 else []
 
 
 def hard_cases(coarse: dict[str, Any], lams: tuple[float, ...], quick: bool) -> list[Run]:

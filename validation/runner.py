@@ -20,6 +20,7 @@ from typing import Any, Callable
 
 from results import Result, atomic_write_text, level_label, load_result, save_result, write_pvd
 
+from . import experiment
 from .executor import DEFAULT_WORKERS, connect, run_tasks
 from .plan import Plan, Run
 
@@ -95,7 +96,7 @@ def execute(run: Run, scene_data: dict[str, Any], out_dir: str) -> dict[str, Any
     os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
     run_dir = Path(out_dir) / "runs" / run.label
     run_dir.mkdir(parents=True, exist_ok=True)
-    record: dict[str, Any] = {"run": asdict(run), "states": [], "error": None, "complete": False}
+    record: dict[str, Any] = {"run": _as_recorded(run), "states": [], "error": None, "complete": False}
     previous = run_record(run_dir)
     if previous is not None and previous["run"] != _as_recorded(run):
         # the plan changed: the states on disk belong to another run
@@ -107,11 +108,14 @@ def execute(run: Run, scene_data: dict[str, Any], out_dir: str) -> dict[str, Any
     states: dict[float, Result] = {}
     try:
         scene = scenes.Scene.from_dict(scene_data).updated(**run.changes)
-        states.update(load_states(run_dir, run.prestretches))
-        for res in _states(run, scene, dict(states)):
-            save_result(state_path(run_dir, res.prestretch), res)
-            res.write_vtk(run_dir / f"{run.label}_{level_label(res.prestretch)}.vtu")
-            states[state_key(res, run.prestretches)] = res
+        if run.voltages:  # states keyed by voltage: see validation.experiment
+            states = experiment.execute(run, scene, run_dir)
+        else:
+            states.update(load_states(run_dir, run.prestretches))
+            for res in _states(run, scene, dict(states)):
+                save_result(state_path(run_dir, res.prestretch), res)
+                res.write_vtk(run_dir / f"{run.label}_{level_label(res.prestretch)}.vtu")
+                states[state_key(res, run.prestretches)] = res
     except scenes.DemesError as exc:  # bad input for this run: named, no traceback
         record["error"] = f"{'scene error' if isinstance(exc, scenes.SceneError) else 'refused'}: {exc}"
     except Exception as exc:  # a solver failure is a result of the validation, not its end
@@ -121,12 +125,12 @@ def execute(run: Run, scene_data: dict[str, Any], out_dir: str) -> dict[str, Any
     record["peak_memory_mb"] = _peak_memory_mb()
     record["peak_memory_is_per_run"] = measured
     record["states"] = [
-        {"prestretch": lam, "status": r.status, "converged": r.converged, "wall_time": r.wall_time,
+        {"voltage" if run.voltages else "prestretch": lam, "status": r.status, "converged": r.converged, "wall_time": r.wall_time,
          "iterations": r.iterations, "message": r.message}
         for lam, r in sorted(states.items())
     ]
     vtus = [(lam, run_dir / f"{run.label}_{level_label(lam)}.vtu") for lam in sorted(states)]
-    if vtus:
+    if vtus and not run.voltages:
         write_pvd(run_dir / f"{run.label}.pvd", [(lam, p) for lam, p in vtus if p.exists()])
     record["complete"] = record["error"] is None
     atomic_write_text(run_dir / "run.json", json.dumps(record, indent=1))
@@ -139,8 +143,13 @@ def is_complete(run: Run, out_dir: Path) -> bool:
 
 
 def _as_recorded(run: Run) -> dict[str, Any]:
-    """``run`` as its record holds it (through JSON: tuples become lists)."""
-    return json.loads(json.dumps(asdict(run)))
+    """``run`` as its record holds it (through JSON: tuples become lists). The voltage fields
+    are left out where they are off, so records written before they existed still match."""
+    rec = asdict(run)
+    for key in ("voltages", "calibrate"):
+        if not rec[key]:
+            del rec[key]
+    return json.loads(json.dumps(rec))
 
 
 def run_plan(plan: Plan, scene_data: dict[str, Any], out_dir: Path, workers: int = DEFAULT_WORKERS,

@@ -7,7 +7,7 @@ from pathlib import Path
 
 import scenes
 
-from . import figures
+from . import experiment, figures
 from .analysis import analyse
 from .plan import build_plan
 from .report import write_report
@@ -33,6 +33,8 @@ def validate(scene: scenes.Scene, out_dir: Path, quick: bool = False, workers: i
         "frame_curves": figures.frame_curves(a, fig_dir / "frame_curves.png"),
         "renders": figures.renders(a, plan.speed_prestretch, fig_dir / "shapes.png"),
     }
+    if a.experiment is not None:
+        figs.update(experiment.figures(a.experiment, fig_dir))
     title = f"DEMES validation: DR against the FEM reference ({scene.name}{', quick' if quick else ''})"
     files = write_report(a, out_dir, figs, title)
     files["elapsed_s"] = time.perf_counter() - t0  # type: ignore[assignment]
