@@ -1,8 +1,10 @@
 """Damping schemes of the DR time loop, one compiled unit each, all with the same signature.
 
 Each takes the loop's :class:`dr.integrator.State` at x(t) (positions, v(t - dt/2), the
-residual R(t) and the masses there) and sets V to v(t + dt/2); dt = 1, masses scaled to it.
-It returns GOING (no reset), RESTART (the motion stops: the loop restarts it from rest at x,
+residual R(t) and the masses there) and the number n of real nodes (not the element record,
+whose reference counting would cost more than a small model's step, see
+:func:`dr.integrator.run`), and sets V to v(t + dt/2); dt = 1, masses scaled to it. It
+returns GOING (no reset), RESTART (the motion stops: the loop restarts it from rest at x,
 v = dt/2 M^-1 R) or MOVED_BACK (the same after moving the nodes: R and the masses are
 recomputed first).
 
@@ -57,12 +59,11 @@ def accelerate(V, R, Minv, free, n, factor, gain):
 
 
 @njit(cache=True, error_model="numpy")
-def kinetic(st, P):
+def kinetic(st, n):
     """Barnes' kinetic damping. The peak is detected from the change of kinetic energy over
     the step measured with this step's masses, dKE = (v(t-dt/2) + dt/2 M^-1 R(t)) . R(t) dt,
     which stays meaningful when the masses change. At a peak the nodes go back to
     x* = x(t+dt) - 1.5 dt v(t+dt/2) + dt^2/2 M^-1 R(t) (and restart from rest there)."""
-    n = P.n
     X, V, R, Minv, free = st.X, st.V, st.R, st.Minv, st.free
     dke = 0.0
     for i in range(n):
@@ -80,9 +81,8 @@ def kinetic(st, P):
 
 
 @njit(cache=True, error_model="numpy")
-def viscous(st, P):
+def viscous(st, n):
     """Underwood's adaptive viscous damping (module docstring)."""
-    n = P.n
     X, V, R, M, free, R_prev, X0 = st.X, st.V, st.R, st.M, st.free, st.R_prev, st.X0
     xkx, xmx = 0.0, 0.0
     for i in range(n):
@@ -102,9 +102,8 @@ def viscous(st, P):
 
 
 @njit(cache=True, error_model="numpy")
-def fire(st, P):
+def fire(st, n):
     """FIRE at a fixed step (the masses already sit at the stability bound of dt = 1)."""
-    n = P.n
     V, R, Minv, free, scratch = st.V, st.R, st.Minv, st.free, st.scratch
     accelerate(V, R, Minv, free, n, 1.0, 1.0)
     power, v2, a2 = 0.0, 0.0, 0.0

@@ -5,7 +5,8 @@ scaled to it. The loop works on a named :class:`State` (arrays, changed in place
 Masses are symmetric 3x3 per node, stored as (xx, yy, zz, xy, xz, yz). With ``tensor`` masses
 they are built from the direction-dependent stiffness of links and cables (EA/L0 e e^T along,
 T/L across) plus an isotropic part for beams; a frame node is then heavy only along the frame,
-not across it, which is what limits the step count. They are rebuilt every step: a light
+not across it, which is what limits the step count. They are rebuilt whenever the nodes may
+have moved ``drift`` mm since the last rebuild (every step while they move fast): a light
 frame node moving across its links turns them by degrees per step, and a stale tensor would
 let the axial stiffness leak into the light direction. Without, they are Barnes' scalar
 masses f dt^2/2 S, updated every ``mass_every`` steps.
@@ -59,6 +60,7 @@ class Settings(NamedTuple):
     force_floor: float  # smallest force scale, N
     runaway: float  # largest step of a stable run, mm
     mass_every: int  # steps between refreshes of the stiffness bounds
+    drift: float  # mm the nodes may move before the tensor masses are rebuilt (0: every step)
 
 
 def new_state(X: np.ndarray, free: np.ndarray, loads: np.ndarray, tensor: bool,
@@ -78,19 +80,24 @@ def _nanmax(a, b):
 
 
 @njit(cache=True, error_model="numpy")
-def residual(st, P):
-    """st.R = (loads - dE/dx) at free DOFs. Returns (largest element force, max |R_i|), N."""
-    R, G, loads, free = st.R, st.G, st.loads, st.free
-    fmax = gradient(st.X, P, G, st.D)
+def collect(R, G, loads, free, n):
+    """R = (loads - G) at free DOFs of the n real nodes. Returns max |R_i|, N."""
     rmax2 = 0.0
-    for i in range(P.n):
+    for i in range(n):
         r2 = 0.0
         for c in range(3):
             r = (loads[i, c] - G[i, c]) * free[i, c]
             R[i, c] = r
             r2 += r * r
         rmax2 = _nanmax(rmax2, r2)
-    return fmax, math.sqrt(rmax2)
+    return math.sqrt(rmax2)
+
+
+@njit(cache=True, error_model="numpy")
+def residual(st, P):
+    """st.R = (loads - dE/dx) at free DOFs. Returns (largest element force, max |R_i|), N."""
+    fmax = gradient(st.X, P, st.G, st.D)
+    return fmax, collect(st.R, st.G, st.loads, st.free, P.n)
 
 
 @njit(cache=True, error_model="numpy")
@@ -135,15 +142,6 @@ def start(st, P, half_safety):
 
 
 @njit(cache=True, error_model="numpy")
-def _damp(st, P, scheme):
-    if scheme == dmp.VISCOUS:
-        return dmp.viscous(st, P)
-    if scheme == dmp.FIRE:
-        return dmp.fire(st, P)
-    return dmp.kinetic(st, P)
-
-
-@njit(cache=True, error_model="numpy")
 def run(st, P, cfg):
     """Advance up to ``cfg.max_steps`` leapfrog steps with the damping ``cfg.damping``.
 
@@ -157,13 +155,22 @@ def run(st, P, cfg):
     ``runaway`` mm in one step. Contact is tested with a Verlet list: pairs within reach
     d + 2 skin are listed again whenever the ``watched`` nodes may have moved a skin, and the
     listed pairs are tested whenever they may have moved d/4, so nothing passes through
-    unseen. The stiffness bounds behind the masses are refreshed every ``mass_every`` steps.
+    unseen. The stiffness bounds behind the masses are refreshed every ``mass_every`` steps,
+    and tensor masses rebuilt once the nodes may have moved ``cfg.drift`` mm (the sum of the
+    largest step of each step) since the last rebuild.
 
     Returns (reason, steps, restarts, largest element force, max residual).
     """
+    # Records are unpacked here once: a compiled call that takes a record increments the
+    # reference count of each of its arrays (atomically) on entry and decrements it on exit
+    # unless numba can prove it needless, which costs about 0.5 us per record per call; the
+    # per-step calls below take arrays or records that numba prunes (issue 13).
     n = P.n
-    X, V, M, watched, segments = st.X, st.V, st.M, st.watched, st.segments
+    X, V, R, G, D, M = st.X, st.V, st.R, st.G, st.D, st.M
+    loads, free, watched, segments = st.loads, st.free, st.watched, st.segments
+    scheme = cfg.damping
     tensor = st.D.shape[0] > 0
+    no_blocks = np.zeros((0, 6))  # an empty D: the gradient without the tensor blocks
     contact_distance = cfg.contact_distance
     steps = 0
     restarts = 0
@@ -174,15 +181,22 @@ def run(st, P, cfg):
                   else np.zeros((0, 2), np.int64))
     moved_list = 0.0
     moved_check = 0.0
+    drifted = math.inf  # rebuild at the first step
     while steps < cfg.max_steps:
-        how = _damp(st, P, cfg.damping)
+        if scheme == dmp.VISCOUS:
+            how = dmp.viscous(st, n)
+        elif scheme == dmp.FIRE:
+            how = dmp.fire(st, n)
+        else:
+            how = dmp.kinetic(st, n)
         if how != dmp.GOING:
             restarts += 1
             if how == dmp.MOVED_BACK:
-                residual(st, P)
+                gradient(X, P, G, D)
+                collect(R, G, loads, free, n)
                 if tensor:
                     build_masses(st, cfg.half_safety)
-            dmp.accelerate(V, st.R, st.Minv, st.free, n, 0.0, 0.5)
+            dmp.accelerate(V, R, st.Minv, free, n, 0.0, 0.5)
         step_max2 = 0.0
         watch_max2 = 0.0
         mom_max2 = 0.0
@@ -200,8 +214,13 @@ def run(st, P, cfg):
         refresh = steps % cfg.mass_every == 0
         if refresh:
             stiffness(X, P, st.S, not tensor)
-        fmax, rmax = residual(st, P)
-        if tensor or refresh:
+        drifted += math.sqrt(step_max2)
+        rebuild = tensor and drifted > cfg.drift
+        if rebuild:
+            drifted = 0.0
+        fmax = gradient(X, P, G, D if rebuild or not tensor else no_blocks)
+        rmax = collect(R, G, loads, free, n)
+        if rebuild or refresh:
             build_masses(st, cfg.half_safety)
         step_max = math.sqrt(step_max2)
         moved_list += math.sqrt(watch_max2)

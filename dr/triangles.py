@@ -138,14 +138,14 @@ def triangle_local(xl, gN, par, gl, want_grad):
     return par[AREA] * par[EH] / (2.0 * par[LAM]) * w
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", inline="always")
 def _gather(X, idx, xl):
     for a in range(3):
         for i in range(3):
             xl[a, i] = X[idx[a], i]
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", inline="always")
 def triangle_gradient(X, idx, gN, par, G, D, xl, gl):
     """Add one triangle's energy gradient to G (N) and, if D has rows, its link-like stiffness
     blocks (linear law). xl, gl: (3, 3) scratch. Returns the largest nodal force, N."""
@@ -227,8 +227,9 @@ def gradient(X, P, G, D):
     xl = np.zeros((3, 3))
     gl = np.zeros((3, 3))
     fmax = 0.0
-    for k in range(P.tri_idx.shape[0]):
-        fmax = max(fmax, triangle_gradient(X, P.tri_idx[k], P.tri_grad[k], P.tri_par[k], G, D, xl, gl))
+    idx, grad, par = P.tri_idx, P.tri_grad, P.tri_par  # once: a field read in the loop costs a reference count
+    for k in range(idx.shape[0]):
+        fmax = max(fmax, triangle_gradient(X, idx[k], grad[k], par[k], G, D, xl, gl))
     return fmax
 
 

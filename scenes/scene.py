@@ -434,7 +434,7 @@ class DRSpec(_Section):
         0.025, non_negative, "", "largest pre-stretch increment on the way to a state (0: all at once)"
     )
     step_tolerance: float = spec(
-        1e-3, between(1e-12, 0.1, why=" (relative residual)"), "", "tolerance of the intermediate pre-stretch steps")
+        1e-2, between(1e-12, 0.1, why=" (relative residual)"), "", "tolerance of the intermediate pre-stretch steps")
     check_contact: bool = spec(True, boolean, "", "stop on frame self-contact or membrane folds")
     damping: str = spec(
         "kinetic", one_of("kinetic", "viscous", "fire"), "",
