@@ -101,6 +101,14 @@ class DemesProblem:
         x[self.mesh.frame_nodes[~self.held_chain], 2] -= self.offset
         return x.ravel()
 
+    def hold(self, x: np.ndarray) -> np.ndarray:
+        """``x`` (flattened) with the held nodes at their reference positions: Newton moves only
+        the free DOFs, so a start state (e.g. transferred from a coarser mesh, which moves the
+        refined nodes of a held fillet with the film) must put the supports where they are."""
+        y = x.reshape(-1, 3).copy()
+        y[self.held] = self.X[self.held]
+        return y.ravel()
+
     def reference(self) -> np.ndarray:
         """The flat state (the equilibrium at lambda = 1), flattened."""
         return self.X.ravel().copy()

@@ -458,7 +458,7 @@ def sweep(scene: Scene, prestretches: Sequence[float], refinement: int | None = 
         if guide is not None:
             g_out = guide.advance(lam)
             if g_out.converged:
-                guess = coarse.mesh.transfer(g_out.y.reshape(-1, 3), problem.mesh).ravel()
+                guess = problem.hold(coarse.mesh.transfer(g_out.y.reshape(-1, 3), problem.mesh))
             else:
                 guide = None  # the coarse path stopped: the fine one goes on by itself
         out = path.advance(lam, guess)

@@ -107,6 +107,20 @@ def test_dr_triangles_and_fem_find_the_same_states():
         assert f.bending_angle > 30.0  # a curled state, not the flat one
 
 
+def test_a_refined_fem_state_is_a_dr_equilibrium_of_the_same_energy():
+    """Refinement 1 (its Newton starts from the coarse state, transferred): the supports stay
+    where they are, and DR started at the FEM's state stays there with the FEM's energy."""
+    scene = _coarse("strip", **{"fem.refinement": 1})
+    f = next(fem_reference.sweep(scene, [1.3], refinement=1))
+    pb = DemesProblem(scene, 1, "P1")
+    np.testing.assert_array_equal(f.x[pb.held], pb.X[pb.held])
+    d = dr.solve(scene, 1.3, x_start=f.x, from_prestretch=1.3)
+    assert d.converged and f.converged
+    assert np.abs(d.x - f.x).max() <= 1e-6 * scene.outline.side_length
+    for part in ("membrane", "frame_bending", "frame_torsion", "frame_axial", "total"):
+        assert d.energy[part] == pytest.approx(f.energy[part], rel=1e-9, abs=1e-12), part
+
+
 def test_bad_bond_and_unsupported_offset_are_named():
     with pytest.raises(scenes.SceneError, match="frame.bond_lever"):
         scenes.paper_demes(**{"frame.bond_lever": 5.0})
