@@ -1,7 +1,7 @@
 """Validate DR against the FEM reference on the paper's DEMES and read the numbers back.
 
 Run:  python examples/validate_paper_demes.py [--full]
-(quick: about a minute on a coarse mesh; --full: about 17 minutes on two cores). Same as
+(quick: about a minute on a coarse mesh; --full: about half an hour on two cores, level 3 of the FEM most of it). Same as
 `demes validate [--quick]`; an interrupted run resumes from the states it finished. The tests run
 it (quick) to make the report they check.
 
