@@ -17,7 +17,7 @@ from fem_reference import richardson
 from . import experiment
 from .compare import CURVE_SAMPLES, Reference, build_reference, state_metrics
 from .experiment import Experiment
-from .plan import NETS, Plan, Run, doubling_chain
+from .plan import NETS, Plan, Run
 from .runner import load_states, run_record
 from .sweep import not_reached
 
@@ -33,7 +33,7 @@ class Analysis:
     states: dict[str, dict[float, Result]]
     records: dict[str, dict[str, Any]]
     references: dict[float, Reference]
-    dr_limit: Reference | None
+    dr_limits: dict[float, Reference]  # DR's own refined limit per pre-stretch (the drconv runs)
     state_rows: list[dict[str, Any]] = field(default_factory=list)
     headline: list[dict[str, Any]] = field(default_factory=list)
     speed_rows: list[dict[str, Any]] = field(default_factory=list)
@@ -47,12 +47,17 @@ class Analysis:
     level_costs: list[dict[str, Any]] = field(default_factory=list)
     net_limits: dict[str, Reference] = field(default_factory=dict)  # the nets' own refined limits
     limits: list[dict[str, Any]] = field(default_factory=list)  # DR's and the FEM's limits side by side
+    experiment: Experiment | None = None  # the voltage runs (validation.experiment)
+
+    @property
+    def dr_limit(self) -> Reference | None:
+        """DR's refined limit at the speed study's pre-stretch."""
+        return self.dr_limits.get(self.plan.speed_prestretch)
 
     @property
     def unfinished(self) -> list[str]:
         """Runs of the plan without a complete record (interrupted, or never started)."""
         return [r.label for r in self.plan.runs if not self.records.get(r.label, {}).get("complete")]
-    experiment: Experiment | None = None  # the voltage runs (validation.experiment)
 
 
 def analyse(plan: Plan, out_dir: Path) -> Analysis:
@@ -71,21 +76,21 @@ def analyse(plan: Plan, out_dir: Path) -> Analysis:
         ref = build_reference(plan.reference_levels, levels)
         if ref is not None:
             references[lam] = ref
-    # DR's own refined limit: the matched model on meshes doubling in density, tightest tolerance
-    speed_dr = [r for r in plan.by_group("speed") if r.solver == "dr"]
-    tight = min((r.changes["dr.tolerance"] for r in speed_dr), default=None)
-    chain = doubling_chain(sorted({r.changes["mesh.divisions"] for r in speed_dr}))
-    dr_limit = None
-    if chain:
-        dr_states = [states[_speed_label(n, tight)].get(plan.speed_prestretch) for n in chain]
-        if all(s is not None for s in dr_states):
-            dr_limit = build_reference(tuple(range(len(chain))), dr_states)
-    a = Analysis(plan, states, records, references, dr_limit, branch_rows=branch_rows)
+    # DR's own refined limit: the matched model on meshes doubling in density at its tightest
+    # tolerance (the drconv runs), extrapolated as the FEM's levels are
+    drconv = plan.by_group("drconv")
+    dr_limits = {}
+    for lam in plan.sweep:
+        dr_states = [states[r.label].get(lam) for r in drconv]
+        dr_ref = build_reference(tuple(range(len(drconv))), dr_states) if drconv and all(dr_states) else None
+        if dr_ref is not None:
+            dr_limits[lam] = dr_ref
+    a = Analysis(plan, states, records, references, dr_limits, branch_rows=branch_rows)
     a.first_contact = first_contact(plan, states)
     _state_rows(a)
     _headline(a)
     _speed(a)
-    _budget(a, chain, tight)
+    _budget(a)
     _hard(a)
     _reference_rows(a)
     _level_costs(a)
@@ -172,7 +177,7 @@ def _difference(x: Result | None, y: Result | None) -> tuple[float, float]:
     return rms, x.bending_angle - y.bending_angle
 
 
-def _budget(a: Analysis, chain: list[int], tight: float | None) -> None:
+def _budget(a: Analysis) -> None:
     """Error budget at the speed pre-stretch: discretisation, model form, solver tolerance."""
     lam = a.plan.speed_prestretch
     ref = a.references.get(lam)
@@ -188,9 +193,11 @@ def _budget(a: Analysis, chain: list[int], tight: float | None) -> None:
                     s.bending_angle - ref.values["bending_angle"])
         add("discretisation", "FEM extrapolated limit: its own error estimate", ref.shape_uncertainty,
             ref.errors["bending_angle"])
-    if a.dr_limit is not None and tight is not None:
-        for n in chain:
-            s = a.states[_speed_label(n, tight)].get(lam)
+    drconv = a.plan.by_group("drconv")
+    chain = [r.changes["mesh.divisions"] for r in drconv]
+    if a.dr_limit is not None:
+        for run, n in zip(drconv, chain):
+            s = a.states[run.label].get(lam)
             if s is not None:
                 add("discretisation", f"DR matched, {n} divisions vs its extrapolated limit",
                     a.dr_limit.shape_error(s)[0], s.bending_angle - a.dr_limit.values["bending_angle"])
@@ -218,8 +225,9 @@ def _budget(a: Analysis, chain: list[int], tight: float | None) -> None:
     ]
     for kind, what, x, y in pairs:
         add(kind, what, *_difference(a.states[x].get(lam), a.states[y].get(lam)))
+    tight = min((r.changes["dr.tolerance"] for r in drconv), default=None)
     if tight is not None:
-        n_mid = chain[len(chain) // 2] if chain else None
+        n_mid = chain[len(chain) // 2]
         for run in a.plan.by_group("speed"):
             if run.solver == "dr" and run.changes["mesh.divisions"] == n_mid and run.changes["dr.tolerance"] != tight:
                 add("solver tolerance", f"DR tol {run.changes['dr.tolerance']:.0e} vs {tight:.0e} ({n_mid} divisions)",
@@ -276,10 +284,8 @@ def _limits(a: Analysis) -> None:
     """Per pre-stretch, DR's refined limit (the matched model on doubling meshes) beside the
     FEM's: one discrete problem refined by two solvers. 'agree' when the bending angles differ
     by less than the sum of their error estimates."""
-    runs = a.plan.by_group("drconv")
     for lam in a.plan.sweep:
-        states = [a.states[r.label].get(lam) for r in runs]
-        dr_ref = build_reference(tuple(range(len(runs))), states) if runs and all(states) else None
+        dr_ref = a.dr_limits.get(lam)
         fem_ref = a.references.get(lam)
         if dr_ref is None and fem_ref is None:
             continue
