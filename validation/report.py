@@ -282,7 +282,7 @@ def write_report(a: Analysis, out_dir: Path, figures: dict[str, Path | None], ti
             Table(LIMITS, a.limits)]),
         Section("Reference levels: branches and first contact", [
             "The FEM reference per pre-stretch: values extrapolated over the levels listed (the last three give the "
-            "observed order; blank where it was outside 0.5-4 and the formal order 2 was used), each with its error "
+            "observed order; '-' where it was outside 0.5-4 and the formal order 2 was used), each with its error "
             "estimate.", Table(REFERENCE, a.reference_table),
             "What each level costs along the sweep (medians over its converged states, each started from the "
             "previous one; every Newton iteration is one LDL^T factorisation, plus one per shift tried near a "
