@@ -12,7 +12,7 @@ from scipy.spatial import cKDTree
 from results import Result
 from scenes import Scene, SceneError
 from scenes.electric import dielectric_coefficient
-from scenes.mesh import membrane_mesh
+from scenes.mesh import membrane_mesh, transfer_linear
 from scenes.scene import prestretch_value
 
 from .contact import FilmCrossing, FrameContact, MembraneFold
@@ -285,11 +285,17 @@ def solve(scene: Scene, prestretch: float | None = None, x_start: np.ndarray | N
           relift: bool = False, progress: bool = False, from_prestretch: float = 1.0) -> Result:
     """Equilibrium of ``scene`` by dynamic relaxation (the paper's model).
 
-    The pre-stretch is raised from ``from_prestretch`` to ``prestretch`` in steps of at most
+    The pre-stretch is raised from ``from_prestretch`` to ``prestretch`` in steps of
     ``scene.dr.prestretch_step``, each relaxed to ``scene.dr.step_tolerance`` and the last to
     ``scene.dr.tolerance``: a quasi-static path, as the FEM's continuation. Applied at once,
     the pseudo-dynamic transient can settle on another equilibrium (measured: the strip frame
-    at 115 % ends twisted at 1.060 N mm from one jump, curled at 1.015 N mm by steps).
+    at 115 % ends twisted at 1.060 N mm from one jump, curled at 1.015 N mm by steps). With
+    ``scene.dr.prestretch_step_max`` the steps away from the flat state double after each
+    converged step up to it, and a step that stops is retried at half its size from the last
+    converged state. With ``scene.dr.coarse_start`` (triangles at ``fem.refinement >= 1``,
+    from the flat state) the path is followed on refinement 0 and its state, interpolated onto
+    the fine mesh, relaxed there at ``scene.dr.tolerance``; if that does not converge the fine
+    mesh follows the path by itself.
 
     Parameters
     ----------
@@ -306,42 +312,48 @@ def solve(scene: Scene, prestretch: float | None = None, x_start: np.ndarray | N
     lam = scene.prestretch if prestretch is None else float(prestretch)
     dm = build(scene, lam)
     st = scene.dr
+    coarse = None
+    if x_start is None and st.coarse_start and st.membrane_net == "triangles" and scene.fem.refinement > 0:
+        coarse = solve(scene.updated(**{"fem.refinement": 0}), lam, progress=progress, from_prestretch=from_prestretch)
     if x_start is None:
         x_start = dm.start
     elif relift:
         x_start = x_start + (dm.start - dm.model.nodes)
-    path = _ramp(from_prestretch, lam, st.prestretch_step)
     force_scale = 0.01 * scene.membrane.E * dm.cable_area  # a cable at 1 % strain
-    iterations, wall, history, current = 0, 0.0, [], lam
-    for k, step_lam in enumerate(path):
-        dm.model.scale_membrane_rest_lengths(current / step_lam)
-        current = step_lam
-        last = k == len(path) - 1
-        # near the flat state (unstable, but an equilibrium) a loose tolerance accepts it
-        # before the unstable mode has grown, and the path later snaps onto any branch
-        near_flat = np.abs(x_start[dm.frame_nodes, 2]).max() < FLAT_FRACTION * scene.outline.side_length
-        res = relax(
-            dm.model, tol=st.tolerance if (last or near_flat) else max(st.step_tolerance, st.tolerance),
-            mass_safety=st.mass_safety, max_iterations=st.max_iterations, x_start=x_start,
-            contact=dm.contact, final_checks=dm.final_checks, progress=progress and last,
-            force_scale=force_scale, damping=st.damping,
-        )
-        iterations += res.iterations
-        wall += res.wall_time
-        history.append(res.residual_history + np.array([[iterations - res.iterations, 0.0]]) if res.residual_history.size else res.residual_history)
-        if not res.converged:
-            break
-        x_start = res.x
+    settings = dict(mass_safety=st.mass_safety, max_iterations=st.max_iterations, contact=dm.contact,
+                    final_checks=dm.final_checks, force_scale=force_scale, damping=st.damping)
+    runs: list[Result] = []  # every relaxation, in order (their iterations and times add up)
+    path, coarse_failed = [lam], None
+    if coarse is not None and coarse.converged:
+        runs = [coarse, relax(dm.model, tol=st.tolerance, x_start=_coarse_to_fine(scene, coarse.x, dm),
+                              progress=progress, **settings)]
+        coarse_failed = None if runs[-1].converged else runs[-1]
+    elif coarse is not None:
+        coarse_failed = coarse
+    if coarse is None or coarse_failed is not None:
+        path = _follow_path(scene, dm, x_start, from_prestretch, lam, runs, relax_with=settings, progress=progress)
+    res = runs[-1]
+    iterations = sum(r.iterations for r in runs)
+    wall = sum(r.wall_time for r in runs)
+    history, done = [], 0
+    for r in runs:
+        if r.residual_history.size:
+            history.append(r.residual_history + np.array([[done, 0.0]]))
+        done += r.iterations
+    current = path[-1]
     res.iterations, res.wall_time = iterations, wall
-    res.residual_history = np.vstack([h for h in history if h.size]) if any(h.size for h in history) else res.residual_history
+    res.residual_history = np.vstack(history) if history else res.residual_history
     # a path that stopped on the way is reported where it stopped, not where it was headed
     res.scene = scene if current == scene.prestretch else scene.updated(prestretch=current)
     res.prestretch = current
     res.frame_nodes = dm.frame_nodes
     res.frame_s = dm.frame_s
     res.message = f"lambda = {current:.3f}: {res.message}"
+    if coarse is not None:
+        res.message += (f" (started from refinement 0's state, {coarse.iterations} of the iterations there)"
+                        if coarse_failed is None else f" (the start from refinement 0 failed: {coarse_failed.message})")
     if len(path) > 1:
-        res.message += f" (step {path.index(current) + 1} of {len(path)} pre-stretch steps; {iterations} iterations in all)"
+        res.message += f" (pre-stretch step {len(path)}; {iterations} iterations in all)"
     if current < lam:
         res.message += f"; the requested lambda = {lam:.3f} was not reached"
     res.info.update(
@@ -354,6 +366,7 @@ def solve(scene: Scene, prestretch: float | None = None, x_start: np.ndarray | N
         membrane_net=st.membrane_net,
         frame_model=scene.frame.model,
         prestretch_steps=len(path),
+        coarse_iterations=coarse.iterations if coarse is not None else 0,
         reached_prestretch=current,
     )
     res.info["slack_area_fraction_any"], res.info["slack_area_fraction_full"] = slack_fractions(dm, res)
@@ -365,6 +378,47 @@ def solve(scene: Scene, prestretch: float | None = None, x_start: np.ndarray | N
         if scene.perturbation.asymmetry == 0.0 and asym > 1e-3 * scene.outline.side_length:
             res.message += f"; the mirror symmetry broke (asymmetry {asym:.3g} mm)"
     return res
+
+
+def _follow_path(scene: Scene, dm: DemesModel, x_start: np.ndarray, start: float, stop: float,
+                 runs: list[Result], *, relax_with: dict, progress: bool) -> list[float]:
+    """Relax ``dm`` along the pre-stretch path from ``x_start`` at ``start`` to ``stop``
+    (see :func:`solve`), appending every relaxation to ``runs``; returns the levels tried."""
+    st = scene.dr
+    path = []
+    step, largest = st.prestretch_step, max(st.prestretch_step_max, st.prestretch_step)
+    reached, current = start, stop
+    while True:
+        lam = _ramp(reached, stop, step)[0]
+        dm.model.scale_membrane_rest_lengths(current / lam)
+        current = lam
+        path.append(lam)
+        last = lam == stop
+        # near the flat state (unstable, but an equilibrium) a loose tolerance accepts it
+        # before the unstable mode has grown, and the path later snaps onto any branch
+        near_flat = np.abs(x_start[dm.frame_nodes, 2]).max() < FLAT_FRACTION * scene.outline.side_length
+        res = relax(dm.model, tol=st.tolerance if (last or near_flat) else max(st.step_tolerance, st.tolerance),
+                    x_start=x_start, progress=progress and last, **relax_with)
+        runs.append(res)
+        if not res.converged and step > st.prestretch_step:
+            step = max(0.5 * step, st.prestretch_step)  # retry from the last converged state
+            continue
+        if last or not res.converged:
+            return path
+        x_start, reached = res.x, lam
+        if not near_flat:  # near it the branch is chosen: steps stay small there
+            step = min(2.0 * step, largest)
+
+
+def _coarse_to_fine(scene: Scene, x_coarse: np.ndarray, dm: DemesModel) -> np.ndarray:
+    """A state of the triangles on refinement 0 (positions of its mesh's nodes, mm) on the finer
+    mesh of ``dm``: interpolated linearly in the flat coordinates (the outline's new boundary
+    nodes extrapolated, :func:`scenes.mesh.transfer_linear`), supported coordinates back where
+    the fine model holds them (the refined nodes of a held fillet would move with the film)."""
+    x = transfer_linear(membrane_mesh(scene, 0), x_coarse, dm.model.nodes[:, :2])
+    fixed = dm.model.fixed
+    x[fixed] = dm.start[fixed]
+    return x
 
 
 def _ramp(start: float, stop: float, step: float) -> list[float]:

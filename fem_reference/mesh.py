@@ -11,11 +11,10 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 import scipy.sparse as sp
-from matplotlib.tri import Triangulation
 from skfem import Basis, ElementTriP1, ElementTriP2, ElementVector, MeshTri1, MeshTri2
 
 from scenes import Scene, SceneError
-from scenes.mesh import mid_arc_length, membrane_mesh
+from scenes.mesh import locate, mid_arc_length, membrane_mesh
 
 from .errors import FEMError
 
@@ -97,21 +96,8 @@ class MembraneMesh:
         (nn, 3) on this one: interpolated, and outside this mesh's straight-edged boundary
         extrapolated with the local deformation gradient (so the curved outline's offset turns
         with the frame)."""
-        lin = self.linear
         pts = fine.nodes
-        cells = Triangulation(lin.p[0], lin.p[1], lin.t.T).get_trifinder()(pts[:, 0], pts[:, 1])
-        base = pts.copy()
-        out = np.flatnonzero(cells < 0)
-        if out.size:
-            facets = lin.boundary_facets()
-            a, b = lin.p[:, lin.facets[0, facets]].T, lin.p[:, lin.facets[1, facets]].T
-            ab = b - a
-            u = np.clip(np.einsum("mkj,kj->mk", pts[out, None, :] - a[None], ab)
-                        / np.einsum("kj,kj->k", ab, ab), 0.0, 1.0)
-            near = a[None] + u[..., None] * ab[None]
-            k = np.argmin(np.linalg.norm(pts[out, None, :] - near, axis=2), axis=1)
-            base[out] = near[np.arange(out.size), k]
-            cells[out] = lin.f2t[0, facets[k]]
+        cells, base = locate(self.linear.p.T, self.linear.t.T, pts)
         P, Gx, Gy = self.interpolation(base, cells, gradients=True)
         offset = pts - base
         return P @ x + (Gx @ x) * offset[:, :1] + (Gy @ x) * offset[:, 1:]

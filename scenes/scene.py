@@ -433,8 +433,16 @@ class DRSpec(_Section):
     prestretch_step: float = spec(
         0.025, non_negative, "", "largest pre-stretch increment on the way to a state (0: all at once)"
     )
+    prestretch_step_max: float = spec(
+        0.0, non_negative, "",
+        "largest pre-stretch increment the path grows to away from the flat state (doubling after each "
+        "converged step, halved on a stop); 0: every step dr.prestretch_step")
     step_tolerance: float = spec(
         1e-2, between(1e-12, 0.1, why=" (relative residual)"), "", "tolerance of the intermediate pre-stretch steps")
+    coarse_start: bool = spec(
+        False, boolean, "",
+        "with 'triangles' at fem.refinement >= 1, from the flat state: follow the path on refinement 0 and "
+        "relax its state, interpolated, on the fine mesh")
     check_contact: bool = spec(True, boolean, "", "stop on frame self-contact or membrane folds")
     damping: str = spec(
         "kinetic", one_of("kinetic", "viscous", "fire"), "",
@@ -447,6 +455,12 @@ class DRSpec(_Section):
             raise SceneError(
                 f"dr.prestretch_step = {self.prestretch_step:g} must be 0 (all at once) or lie in "
                 f"[0.001, {PRESTRETCH_MAX:g}]: smaller steps make tens of thousands of relaxations"
+            )
+        if self.prestretch_step_max and not self.prestretch_step <= self.prestretch_step_max <= PRESTRETCH_MAX:
+            raise SceneError(
+                f"dr.prestretch_step_max = {self.prestretch_step_max:g} must be 0 (fixed steps) or lie in "
+                f"[dr.prestretch_step = {self.prestretch_step:g}, {PRESTRETCH_MAX:g}]: the path grows its "
+                "steps from dr.prestretch_step up to it; raise it or set it to 0"
             )
 
 
