@@ -434,13 +434,13 @@ class DRSpec(_Section):
         0.025, non_negative, "", "largest pre-stretch increment on the way to a state (0: all at once)"
     )
     prestretch_step_max: float = spec(
-        0.0, non_negative, "",
+        0.1, non_negative, "",
         "largest pre-stretch increment the path grows to away from the flat state (doubling after each "
         "converged step, halved on a stop); 0: every step dr.prestretch_step")
     step_tolerance: float = spec(
         1e-2, between(1e-12, 0.1, why=" (relative residual)"), "", "tolerance of the intermediate pre-stretch steps")
     coarse_start: bool = spec(
-        False, boolean, "",
+        True, boolean, "",
         "with 'triangles' at fem.refinement >= 1, from the flat state: follow the path on refinement 0 and "
         "relax its state, interpolated, on the fine mesh")
     check_contact: bool = spec(True, boolean, "", "stop on frame self-contact or membrane folds")

@@ -13,7 +13,7 @@ import fem_reference
 import scenes
 from dr.kernels import energy
 from fem_reference.model import DemesProblem
-from scenes.mesh import membrane_mesh
+from scenes.mesh import locate, membrane_mesh, transfer_linear
 from test_dr_elements import fd_gradient, kernel_gradient
 
 
@@ -128,3 +128,35 @@ def test_bad_bond_and_unsupported_offset_are_named():
         scenes.paper_demes(**{"frame.bond_lever": 0.0})
     with pytest.raises(scenes.SceneError, match="film_offset"):
         dr.build(_coarse("strip", **{"frame.film_offset": True}))
+
+
+def test_linear_transfer_reproduces_an_affine_field_on_the_refined_mesh():
+    """P1 interpolation is exact for an affine map of the flat coordinates, and so is its
+    extension past the coarse mesh's straight edges to the refined outline nodes."""
+    scene = _coarse("strip")
+    coarse, fine = membrane_mesh(scene, 0), membrane_mesh(scene, 2)
+    A = np.array([[1.1, 0.2], [-0.3, 0.9], [0.4, -0.7]])
+
+    def affine(p):
+        return p @ A.T + [1.0, -2.0, 3.0]
+
+    outside = locate(coarse.nodes, coarse.triangles, fine.nodes)[1] != fine.nodes
+    assert outside.any()  # the refined outline bulges past the coarse edges
+    np.testing.assert_allclose(transfer_linear(coarse, affine(coarse.nodes), fine.nodes), affine(fine.nodes),
+                               atol=1e-12 * scene.outline.side_length)
+
+
+def test_a_coarse_start_reaches_the_direct_paths_state():
+    """dr.coarse_start (the path on refinement 0, its state interpolated onto refinement 1 and
+    relaxed there) ends at the state the path on refinement 1 ends at, to the solver's tolerance,
+    with the supports where they are."""
+    scene = _coarse("strip", **{"fem.refinement": 1})
+    direct = dr.solve(scene, 1.2)
+    started = dr.solve(scene.updated(**{"dr.coarse_start": True}), 1.2)
+    assert direct.converged and started.converged, (direct.message, started.message)
+    assert 0 < started.info["coarse_iterations"] < started.iterations
+    held = dr.build(scene, 1.2).model.fixed.all(axis=1)
+    np.testing.assert_array_equal(started.x[held], direct.x0[held])
+    assert abs(started.bending_angle - direct.bending_angle) <= 1e-3
+    assert started.shape_error(direct)[0] <= 1e-5
+    assert direct.bending_angle > 45.0  # the curled state, not the flat one
