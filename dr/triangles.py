@@ -28,7 +28,7 @@ import numpy as np
 from numba import njit
 
 from .blocks import add_block
-from .vec import add_to, get, norm, scale
+from .vec import add_to, axpy, get, norm, scale
 
 LINEAR, NEO_HOOKEAN, GENT = 0, 1, 2
 LAWS = {"linear": LINEAR, "neo-hookean": NEO_HOOKEAN, "gent": GENT}
@@ -57,15 +57,15 @@ def shape_gradients(flat: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 @njit(cache=True, error_model="numpy", inline="always")
-def _family(xl, gN, k):
-    """f = F m_k and its node weights c_a = grad N_a . m_k, from local rows xl (3, 3)."""
+def _family(x0, x1, x2, gN, k):
+    """f = F m_k and its node weights c_a = grad N_a . m_k, from the corner positions (tuples)."""
     mx, my = DIRECTIONS[k, 0], DIRECTIONS[k, 1]
     c0 = gN[0, 0] * mx + gN[0, 1] * my
     c1 = gN[1, 0] * mx + gN[1, 1] * my
     c2 = gN[2, 0] * mx + gN[2, 1] * my
-    f = (c0 * xl[0, 0] + c1 * xl[1, 0] + c2 * xl[2, 0],
-         c0 * xl[0, 1] + c1 * xl[1, 1] + c2 * xl[2, 1],
-         c0 * xl[0, 2] + c1 * xl[1, 2] + c2 * xl[2, 2])
+    f = (c0 * x0[0] + c1 * x1[0] + c2 * x2[0],
+         c0 * x0[1] + c1 * x1[1] + c2 * x2[1],
+         c0 * x0[2] + c1 * x1[2] + c2 * x2[2])
     return f, (c0, c1, c2)
 
 
@@ -127,7 +127,7 @@ def triangle_local(xl, gN, par, gl, want_grad):
         return par[AREA] * W
     w = 0.0
     for k in range(3):
-        f, c = _family(xl, gN, k)
+        f, c = _family(get(xl, 0), get(xl, 1), get(xl, 2), gN, k)
         lf = norm(f)
         eps = _strain(par, lf)
         w += eps * eps
@@ -145,38 +145,53 @@ def _gather(X, idx, xl):
             xl[a, i] = X[idx[a], i]
 
 
+@njit(cache=True, error_model="numpy")
+def _incompressible_gradient(X, idx, grad, par, G):
+    """Add the gradient of the neo-Hookean and Gent triangles to G (N). Returns the largest
+    nodal force, N."""
+    xl = np.zeros((3, 3))
+    gl = np.zeros((3, 3))
+    fmax = 0.0
+    for k in range(idx.shape[0]):
+        if par[k, LAW] == LINEAR:
+            continue
+        _gather(X, idx[k], xl)
+        gl[:] = 0.0
+        triangle_local(xl, grad[k], par[k], gl, True)
+        for a in range(3):
+            add_to(G, idx[k, a], get(gl, a), 1.0)
+            fmax = max(fmax, norm(get(gl, a)))
+    return fmax
+
+
 @njit(cache=True, error_model="numpy", inline="always")
-def triangle_gradient(X, idx, gN, par, G, D, xl, gl):
-    """Add one triangle's energy gradient to G (N) and, if D has rows, its link-like stiffness
-    blocks (linear law). xl, gl: (3, 3) scratch. Returns the largest nodal force, N."""
-    _gather(X, idx, xl)
-    gl[:] = 0.0
-    if par[LAW] != LINEAR:
-        triangle_local(xl, gN, par, gl, True)
-    else:  # one pass over the families for the forces and the blocks
-        k_axial = par[AREA] * par[EH] * par[LAM]
-        for k in range(3):
-            f, c = _family(xl, gN, k)
-            lf = norm(f)
-            force = par[AREA] * par[EH] * _strain(par, lf)  # d(energy)/d|f|, N mm
-            e = scale(f, 1.0 / lf)
+def _linear_gradient(X, idx, gN, par, G, D):
+    """Add a linear-law triangle's energy gradient to G (N) and, if D has rows, its link-like
+    stiffness blocks; one pass over the families for both. Returns the largest nodal force, N."""
+    x0, x1, x2 = get(X, idx[0]), get(X, idx[1]), get(X, idx[2])
+    g0, g1, g2 = (0.0, 0.0, 0.0), (0.0, 0.0, 0.0), (0.0, 0.0, 0.0)
+    k_axial = par[AREA] * par[EH] * par[LAM]
+    for k in range(3):
+        f, c = _family(x0, x1, x2, gN, k)
+        lf = norm(f)
+        force = par[AREA] * par[EH] * _strain(par, lf)  # d(energy)/d|f|, N mm
+        e = scale(f, 1.0 / lf)
+        g0, g1, g2 = axpy(force * c[0], e, g0), axpy(force * c[1], e, g1), axpy(force * c[2], e, g2)
+        if D.shape[0] > 0:
             csum = abs(c[0]) + abs(c[1]) + abs(c[2])
             for a in range(3):
-                add_to(gl, a, e, force * c[a])
-                if D.shape[0] > 0:
-                    w = abs(c[a]) * csum
-                    add_block(D, idx[a], e, w * k_axial, w * abs(force) / lf)
-    fmax = 0.0
-    for a in range(3):
-        add_to(G, idx[a], get(gl, a), 1.0)
-        fmax = max(fmax, norm(get(gl, a)))
-    return fmax
+                w = abs(c[a]) * csum
+                add_block(D, idx[a], e, w * k_axial, w * abs(force) / lf)
+    add_to(G, idx[0], g0, 1.0)
+    add_to(G, idx[1], g1, 1.0)
+    add_to(G, idx[2], g2, 1.0)
+    return max(norm(g0), norm(g1), norm(g2))
 
 
 @njit(cache=True, error_model="numpy")
 def triangle_stiffness(X, idx, gN, par, S, with_links, xl):
     """Add a per-node scalar stiffness bound (N/mm) to S: the linear law's link-like bound when
-    ``with_links`` (tensor masses take it from :func:`triangle_gradient` instead), the
+    ``with_links`` (tensor masses take it from :func:`gradient` instead), the
     neo-Hookean and Gent triangles' Gershgorin row sums always. xl: (3, 3) scratch."""
     _gather(X, idx, xl)
     if par[LAW] != LINEAR:
@@ -210,7 +225,7 @@ def triangle_stiffness(X, idx, gN, par, S, with_links, xl):
         return
     k_axial = par[AREA] * par[EH] * par[LAM]
     for k in range(3):
-        f, c = _family(xl, gN, k)
+        f, c = _family(get(xl, 0), get(xl, 1), get(xl, 2), gN, k)
         lf = norm(f)
         k_geo = abs(par[AREA] * par[EH] * _strain(par, lf)) / lf
         csum = abs(c[0]) + abs(c[1]) + abs(c[2])
@@ -222,14 +237,20 @@ def triangle_stiffness(X, idx, gN, par, S, with_links, xl):
 def gradient(X, P, G, D):
     """Add all triangles' energy gradient (and blocks) to G (and D). Returns the largest
     nodal force, N."""
-    if P.tri_idx.shape[0] == 0:
-        return 0.0  # no scratch arrays for a model without this element
-    xl = np.zeros((3, 3))
-    gl = np.zeros((3, 3))
-    fmax = 0.0
     idx, grad, par = P.tri_idx, P.tri_grad, P.tri_par  # once: a field read in the loop costs a reference count
+    fmax = 0.0
+    incompressible = False
+    # Everything in this loop is inlined: a row view passed to a compiled call would be
+    # reference-counted (atomically) for every triangle, and the corners and forces stay in
+    # registers (tuples) rather than scratch arrays. Measured at refinement 1 (4,768 triangles):
+    # 690 -> 180 us per call, with the very same sums (issue 13).
     for k in range(idx.shape[0]):
-        fmax = max(fmax, triangle_gradient(X, idx[k], grad[k], par[k], G, D, xl, gl))
+        if par[k, LAW] == LINEAR:
+            fmax = max(fmax, _linear_gradient(X, idx[k], grad[k], par[k], G, D))
+        else:
+            incompressible = True
+    if incompressible:
+        fmax = max(fmax, _incompressible_gradient(X, idx, grad, par, G))
     return fmax
 
 
