@@ -20,7 +20,7 @@ from .kernels import place_virtual
 from .model import Model
 from .net import Net, build_net
 from .relax import relax
-from .triangles import AREA as TRI_AREA, DIRECTIONS as TRI_DIRECTIONS, LAM as TRI_LAM, LAW as TRI_LAW, LINEAR as TRI_LINEAR
+from .triangles import AREA as TRI_AREA, energy as triangle_energy, DIRECTIONS as TRI_DIRECTIONS, LAM as TRI_LAM, LAW as TRI_LAW, LINEAR as TRI_LINEAR
 
 
 FLAT_FRACTION = 0.05
@@ -39,7 +39,6 @@ class DemesModel:
     final_checks: list
     mirror: np.ndarray | None  # node index of each node's mirror image (x -> -x), if symmetric
     cable_area: float  # mm^2, of a cable at the net's spacing (the force scale)
-    film_node: np.ndarray  # (n,) the film node each model node stands for (a cable's attachment: its frame node)
     frame_nodes: np.ndarray  # frame node ids along the outline from the base midpoint
     frame_s: np.ndarray  # their arc lengths, mm
     spacing: float  # mm
@@ -76,102 +75,67 @@ def build(scene: Scene, prestretch: float | None = None) -> DemesModel:
             f"membrane.law = {scene.membrane.law!r}: the DR net models the 'linear' (Hookean cable) "
             f"law only; use dr.membrane_net = 'triangles' or the FEM reference for {scene.membrane.law!r}"
         )
+    if scene.frame.film_offset:
+        raise SceneError("frame.film_offset = true (the film on the strip's face) is modelled by the FEM "
+                         "reference only; set frame.film_offset = false for DR")
     outline = scene.outline
     s_right, s_left = scene.base_region()
     clamps = scene.clamps()
     landmarks = [0.0, outline.apex_arc_length(), s_right, s_left, *outline.breakpoints()]
-    net = build_net(outline, scene.mesh.divisions, landmarks)
+    frame = scene.frame
+    net = build_net(outline, scene.mesh.divisions, landmarks, frame.lever)
     nf = net.n_frame
     fs = net.frame_s
     held = (fs <= s_right + 1e-9) | (fs >= s_left - 1e-9)
-    frame = scene.frame
-    d = frame.film_offset_distance
-
-    nodes = net.nodes.copy()
-    nodes[nf:, 2] = d  # with the film on one face, the membrane lies at the film's plane
-    # held frame nodes with a film offset carry their cable ends on a pinned attachment node
-    attach = np.arange(nf)
-    extra = []
-    if d != 0.0:
-        for k in np.flatnonzero(held):
-            attach[k] = nodes.shape[0] + len(extra)
-            extra.append(nodes[k] + [0.0, 0.0, d])
-    if extra:
-        nodes = np.vstack([nodes, extra])
-    m = Model(nodes)
+    m = Model(net.nodes)
     m.triangles = net.triangles
     m.support(np.flatnonzero(held))
-    if extra:
-        m.support(np.arange(net.nodes.shape[0], nodes.shape[0]))
 
-    # frame: the free part between the clamps ('taped'), or the whole loop ('pinned'); an
-    # edge's strip plane passes through its bond point, the film point frame.bond_lever inside
-    strip = frame.model == "strip"
-    oriented = strip or d != 0.0
-    if oriented:
-        # The net's edges take their strip plane from the lattice node beside them, held by
-        # stress-free ties as stiff as the strip. The bond point frame.bond_lever inside (as
-        # the FEM and the DR triangles) made the tension-only nets unstable (12 divisions,
-        # 1.1-1.45: 'diverged' at every mass safety factor up to 4), so the nets keep this
-        # mesh-dependent lever until that is solved.
-        bonds = net.edge_inner_nodes()
-    if clamps:
-        r, l = net.frame_node_at(clamps[0][0]), net.frame_node_at(clamps[1][0])
-        chain = np.arange(r, l + 1)
-        orientation = bonds[r:l] if oriented else None
-        for (s_c, tangent), node in zip(clamps, (r, l)):
-            m.clamp(node, tangent, taped=True)
-        closed = False
+    if frame.model == "strip":
+        # the FEM's rod: each edge's strip plane passes through its bond nodes, frame.bond_lever
+        # inside, at every mesh density (docs/discrete-problem.md)
+        m.add_rod(np.arange(nf), EA=frame.EA, EI=frame.EI, closed=True, EI_strong=frame.EI_strong,
+                  GJ=frame.GJ, bond=net.bond_nodes)
     else:
-        chain, orientation, closed = np.arange(nf), bonds if oriented else None, True
-    m.add_beam(
-        chain,
-        EI=frame.EI,
-        EA=frame.EA,
-        EI_strong=frame.EI_strong if strip else None,
-        GJ=frame.GJ if strip else None,
-        orientation=orientation,
-        closed=closed,
-    )
-    if oriented:
-        edges = np.stack([chain[:-1], chain[1:]], axis=1) if not closed else np.stack([chain, np.roll(chain, -1)], axis=1)
-        tied = orientation >= nf
-        m.add_link(edges[tied].ravel(), np.repeat(orientation[tied], 2), frame.EA, role="frame")
-    if d != 0.0:
-        for k in chain if closed else chain[1:-1]:
-            attach[k] = m.offset_node(k, d)
+        # the paper's isotropic spline beam on the free part, clamped where the tape ends
+        chain = np.arange(nf)
+        if clamps:
+            r, l = net.frame_node_at(clamps[0][0]), net.frame_node_at(clamps[1][0])
+            for (_, tangent), node in zip(clamps, (r, l)):
+                m.clamp(node, tangent, taped=True)
+            chain = chain[r:l + 1]
+        m.add_beam(chain, EI=frame.EI, EA=frame.EA, closed=not clamps)
 
-    # membrane: lattice lines as clustered cables (the paper) or one link per segment
-    area = cable_area(scene, net.spacing)
-    tension_only = scene.membrane.tension_only
+    # membrane: the row between centreline and bond line as triangles; inside, the lattice
+    # lines as clustered cables (the paper) or one link per segment
+    mem = scene.membrane
+    m.add_triangles(net.row_triangles, E=mem.E, thickness=mem.thickness, prestretch=lam, law="linear",
+                    tension_only=mem.tension_only)
     for cable, film in zip(net.cables, net.cable_film):
-        c = cable.copy()
-        c[0], c[-1] = attach[c[0]], attach[c[-1]]
         flat = np.linalg.norm(np.diff(net.nodes[cable], axis=0), axis=1)
         # the cable carries the film it stands for: E h (film area) / (cable length), which is
-        # E A inside the lattice and makes up for the lattice's margin at the frame
-        EA = scene.membrane.E * scene.membrane.thickness * film / flat.sum()
+        # E A inside the lattice and makes up for the lattice's margin at the bond line
+        EA = mem.E * mem.thickness * film / flat.sum()
         if scene.dr.membrane_net == "clustered":
-            m.add_cluster(c, EA, rest_length=flat.sum() / lam, tension_only=tension_only)
+            m.add_cluster(cable, EA, rest_length=flat.sum() / lam, tension_only=mem.tension_only)
         else:
-            m.add_link(c[:-1], c[1:], EA, rest_length=flat / lam, tension_only=tension_only)
+            m.add_link(cable[:-1], cable[1:], EA, rest_length=flat / lam, tension_only=mem.tension_only)
 
     m.add_dielectric(net.triangles, dielectric_coefficient(scene))
-    start = nodes.copy()
-    start[:, 2] += np.where(m.fixed[:, 2], 0.0, scene.initial_lift(nodes[:, :2]))
+    start = net.nodes.copy()
+    start[:, 2] += np.where(m.fixed[:, 2], 0.0, scene.initial_lift(net.nodes[:, :2]))
     contact, final_checks = None, []
     if scene.dr.check_contact:
         contact = FrameContact(np.arange(nf), frame.thickness)
         final_checks = [MembraneFold(net.triangles, net.nodes), FilmCrossing(net.triangles, np.arange(nf))]
-    film_node = np.arange(nodes.shape[0])
-    film_node[net.nodes.shape[0]:] = np.flatnonzero(held)[: len(extra)]
-    return DemesModel(m, net, start, contact, final_checks, _mirror_map(nodes), area, film_node,
+    return DemesModel(m, net, start, contact, final_checks, _mirror_map(net.nodes), cable_area(scene, net.spacing),
                       np.arange(nf), net.frame_s, net.spacing)
 
 
 def paper_formula_membrane_energy(model: Model, x: np.ndarray) -> float:
     """The membrane energy by the paper's formula, sum of N eps L / 2 over the membrane's links
-    and cables with the *current* length L (N mm; ``results.ENERGY_DEFINITION`` defines both).
+    and cables with the *current* length L, plus the exact energy of the row of triangles at
+    the bond line (N mm; ``results.ENERGY_DEFINITION`` defines both).
 
     The exact energy of a Hookean element is N eps L0 / 2; the formula is larger by L / L0,
     about the pre-stretch. Reported beside the exact energy so the energies can be read
@@ -189,51 +153,65 @@ def paper_formula_membrane_energy(model: Model, x: np.ndarray) -> float:
     Lc = np.bincount(P.clu_seg_cluster, weights=seg, minlength=P.clu_L0.size)
     eps_c = (Lc - P.clu_L0) / P.clu_L0
     Nc = np.where(P.clu_tension_only & (eps_c < 0), 0.0, P.clu_EA * eps_c)
-    return float(0.5 * (np.sum(N * eps * L) + np.sum(Nc * eps_c * Lc)))
+    # the row of triangles at the bond line is no tension element: its exact energy is added
+    return float(0.5 * (np.sum(N * eps * L) + np.sum(Nc * eps_c * Lc)) + triangle_energy(X, P))
 
 
 def slack_fractions(dm: DemesModel, res: Result) -> tuple[float, float]:
-    """Fractions of the flat membrane area whose net triangles have at least one slack edge
-    (a slack link or cable: a tension field, wrinkles) and only slack edges (fully slack).
-    An edge is slack when its tension is not above 1e-9 of the largest membrane tension."""
-    if dm.net is None:
-        return _triangle_slack_fractions(dm, res.x)
+    """Fractions of the flat membrane area with at least one slack direction (a tension field,
+    wrinkles) and with only slack directions (fully slack).
+
+    Constant-strain triangles (the DR triangles, the nets' row at the bond line) are measured
+    by their strains, the nets' lattice triangles by their edges' cables."""
+    area, some, full = _triangle_slack(dm, res.x)
+    if dm.net is not None:
+        parts = zip((area, some, full), _lattice_slack(dm, res))
+        area, some, full = (np.concatenate(p) for p in parts)
+    if area.size == 0 or not np.isfinite(area).all():
+        return float("nan"), float("nan")
+    return float(area[some].sum() / area.sum()), float(area[full].sum() / area.sum())
+
+
+def _lattice_slack(dm: DemesModel, res: Result) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Per lattice triangle of a net: flat area, whether some / all of its cable edges are slack
+    (tension not above 1e-9 of the largest membrane tension)."""
+    tri = dm.net.triangles[dm.net.row_triangles.shape[0]:]
+    x0 = dm.net.nodes
+    area = 0.5 * np.linalg.norm(np.cross(x0[tri[:, 1]] - x0[tri[:, 0]], x0[tri[:, 2]] - x0[tri[:, 0]]), axis=1)
     edges, tension = [], []
     for name in ("membrane_links", "membrane_clusters"):
         if name in res.blocks:
             edges.append(res.blocks[name].connectivity)
             tension.append(res.blocks[name].cell_data["tension_N"])
     if not edges:
-        return 0.0, 0.0
-    edges, tension = np.sort(dm.film_node[np.vstack(edges)], axis=1), np.concatenate(tension)
-    n = dm.film_node.size
+        return area, np.zeros(area.size, bool), np.zeros(area.size, bool)
+    edges, tension = np.sort(np.vstack(edges), axis=1), np.concatenate(tension)
+    n = x0.shape[0]
     keys = edges[:, 0] * n + edges[:, 1]
     taut = keys[tension > 1e-9 * max(float(tension.max()), 1e-300)]
-    tri = dm.net.triangles
     t_edges = np.sort(np.stack([tri[:, [0, 1]], tri[:, [1, 2]], tri[:, [2, 0]]], axis=1), axis=2)
     t_keys = t_edges[..., 0] * n + t_edges[..., 1]
     membrane = np.isin(t_keys, keys)
     slack = membrane & ~np.isin(t_keys, taut)
-    x0 = dm.net.nodes
-    area = 0.5 * np.linalg.norm(np.cross(x0[tri[:, 1]] - x0[tri[:, 0]], x0[tri[:, 2]] - x0[tri[:, 0]]), axis=1)
     some = slack.any(axis=1)
-    full = some & (slack == membrane).all(axis=1)
-    return float(area[some].sum() / area.sum()), float(area[full].sum() / area.sum())
+    return area, some, some & (slack == membrane).all(axis=1)
 
 
-
-def _triangle_slack_fractions(dm: DemesModel, x: np.ndarray) -> tuple[float, float]:
-    """Slack fractions of constant-strain triangles: with the linear law a family (lattice
-    direction m_k) is slack where its strain lambda |F m_k| - 1 is not positive, as the FEM
-    measures it; the neo-Hookean film's principal tensions are not measured here (NaN)."""
+def _triangle_slack(dm: DemesModel, x: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Per constant-strain triangle: flat area, whether some / all families are slack. With the
+    linear law a family (lattice direction m_k) is slack where its strain lambda |F m_k| - 1 is
+    not positive, as the FEM measures it; the neo-Hookean film's principal tensions are not
+    measured here (NaN areas)."""
     P = dm.model.pack()
-    if P.tri_idx.shape[0] == 0 or P.tri_par[0, TRI_LAW] != TRI_LINEAR:
-        return float("nan"), float("nan")
+    if P.tri_idx.shape[0] == 0:
+        return np.zeros(0), np.zeros(0, bool), np.zeros(0, bool)
+    area = P.tri_par[:, TRI_AREA]
+    if P.tri_par[0, TRI_LAW] != TRI_LINEAR:
+        return np.full(area.size, np.nan), np.zeros(area.size, bool), np.zeros(area.size, bool)
     F = np.einsum("tai,taj->tij", x[P.tri_idx], P.tri_grad)  # (t, 3, 2) deformation gradients
     stretch = np.linalg.norm(np.einsum("tij,kj->tki", F, TRI_DIRECTIONS), axis=2)  # (t, 3)
     slack = P.tri_par[:, TRI_LAM, None] * stretch - 1.0 <= 0.0
-    area = P.tri_par[:, TRI_AREA]
-    return float(area[slack.any(axis=1)].sum() / area.sum()), float(area[slack.all(axis=1)].sum() / area.sum())
+    return area, slack.any(axis=1), slack.all(axis=1)
 
 
 def _build_triangles(scene: Scene, lam: float) -> DemesModel:
@@ -266,7 +244,7 @@ def _build_triangles(scene: Scene, lam: float) -> DemesModel:
         contact = FrameContact(mesh.frame_nodes, frame.thickness)
         final_checks = [MembraneFold(mesh.triangles, nodes), FilmCrossing(mesh.triangles, mesh.frame_nodes)]
     return DemesModel(m, None, start, contact, final_checks, _mirror_map(nodes),
-                      cable_area(scene, mesh.spacing), np.arange(len(nodes)), mesh.frame_nodes, mesh.frame_s, mesh.spacing)
+                      cable_area(scene, mesh.spacing), mesh.frame_nodes, mesh.frame_s, mesh.spacing)
 
 
 def _mirror_map(nodes: np.ndarray) -> np.ndarray | None:

@@ -11,11 +11,9 @@ are positions derived from real ones:
 - ghosts (moving clamp ghosts): the mirror image of a beam's second node across the plane
   through the clamped node normal to the clamped tangent (second-order clamp, docs/elements.md);
 - offsets: a frame node moved by a signed distance along the strip normal, where the film is
-  bonded on one face of the strip (the membrane then acts t/2 off the centreline);
-- bond points: a fixed convex combination of three real nodes (a film point inside a membrane
-  triangle), which sets a strip edge's plane at the bond lever whatever the mesh.
+  bonded on one face of the strip (the membrane then acts t/2 off the centreline).
 
-Rows of X: real nodes (n), bond points, offsets, ghosts.
+Rows of X: real nodes (n), offsets, ghosts.
 
 Kernels accumulate the energy gradient G = dE/dX; the residual is R = loads - G after the
 virtual-node gradients are pulled back onto the real nodes (chain rule), so every node that a
@@ -39,8 +37,6 @@ class Packed(NamedTuple):
     """Element arrays of a model, as the kernels take them (see :class:`dr.Model`)."""
 
     n: int  # real nodes
-    bond_nodes: np.ndarray  # (b, 3) the real nodes a bond point is made from
-    bond_w: np.ndarray  # (b, 3) their weights (>= 0, sum 1)
     ghost_src: np.ndarray  # (g,) node mirrored
     ghost_clamp: np.ndarray  # (g,) clamped node
     ghost_t: np.ndarray  # (g, 3) unit clamped tangent
@@ -78,8 +74,8 @@ class Packed(NamedTuple):
 
     @property
     def n_total(self) -> int:
-        """Rows of the extended position array: real nodes, bond points, offsets, ghosts."""
-        return self.n + self.bond_nodes.shape[0] + self.off_geo.shape[0] + self.ghost_src.shape[0]
+        """Rows of the extended position array: real nodes, offsets, ghosts."""
+        return self.n + self.off_geo.shape[0] + self.ghost_src.shape[0]
 
 
 # ----------------------------------------------------------------------------- virtual nodes
@@ -92,8 +88,6 @@ class Virtual(NamedTuple):
     ``Packed`` cost about 0.5 us per call (issue 13)."""
 
     n: int
-    bond_nodes: np.ndarray
-    bond_w: np.ndarray
     ghost_src: np.ndarray
     ghost_clamp: np.ndarray
     ghost_t: np.ndarray
@@ -104,20 +98,15 @@ class Virtual(NamedTuple):
 @njit(cache=True, error_model="numpy", inline="always")
 def virtual(P):
     """The :class:`Virtual` record of a :class:`Packed` (same arrays, no copies)."""
-    return Virtual(P.n, P.bond_nodes, P.bond_w, P.ghost_src, P.ghost_clamp, P.ghost_t, P.off_geo, P.off_d)
+    return Virtual(P.n, P.ghost_src, P.ghost_clamp, P.ghost_t, P.off_geo, P.off_d)
 
 
 
 @njit(cache=True, error_model="numpy")
 def place_virtual(X, P):
-    """Positions of the virtual nodes from the real ones: bond points (rows n...), ghosts,
-    then offsets (after the bond points that may set their normals). P: :class:`Packed` or
-    :class:`Virtual`."""
-    for k in range(P.bond_nodes.shape[0]):
-        for c in range(3):
-            X[P.n + k, c] = (P.bond_w[k, 0] * X[P.bond_nodes[k, 0], c] + P.bond_w[k, 1] * X[P.bond_nodes[k, 1], c]
-                             + P.bond_w[k, 2] * X[P.bond_nodes[k, 2], c])
-    n = P.n + P.bond_nodes.shape[0]  # first offset row
+    """Positions of the virtual nodes from the real ones: ghosts, then offsets (rows n...).
+    P: :class:`Packed` or :class:`Virtual`."""
+    n = P.n  # first offset row
     base = n + P.off_geo.shape[0]
     for k in range(P.ghost_src.shape[0]):
         xs, xc = get(X, P.ghost_src[k]), get(X, P.ghost_clamp[k])
@@ -136,8 +125,8 @@ def place_virtual(X, P):
 @njit(cache=True, error_model="numpy")
 def pull_back_virtual(X, G, P):
     """Move gradients on virtual nodes onto the real nodes they are made from (chain rule):
-    offsets (onto frame nodes and bond points), ghosts, then bond points."""
-    n = P.n + P.bond_nodes.shape[0]
+    offsets (onto frame nodes and the nodes their normals depend on), then ghosts."""
+    n = P.n
     base = n + P.off_geo.shape[0]
     xl = np.zeros((5, 3))
     gl = np.zeros((5, 3))
@@ -158,9 +147,6 @@ def pull_back_virtual(X, G, P):
         gt = 2.0 * dot(g, t)
         add_to(G, P.ghost_src[k], axpy(-gt, t, g), 1.0)
         add_to(G, P.ghost_clamp[k], t, gt)
-    for k in range(P.bond_nodes.shape[0]):
-        for a in range(3):
-            add_to(G, P.bond_nodes[k, a], get(G, P.n + k), P.bond_w[k, a])
 
 
 
@@ -245,29 +231,21 @@ def stiffness(X, P, S, with_links):
         rod.stiffness(X, P, S, with_links)
     if P.diel_idx.shape[0] > 0:
         dielectric.stiffness(X, P, S, with_links)
-    n = P.n + P.bond_nodes.shape[0]
+    n = P.n
     base = n + P.off_geo.shape[0]
     for k in range(P.off_geo.shape[0]):
         S[P.off_geo[k, 1]] += S[n + k]
     for k in range(P.ghost_src.shape[0]):
         S[P.ghost_src[k]] += S[base + k]
-    for k in range(P.bond_nodes.shape[0]):
-        for a in range(3):
-            S[P.bond_nodes[k, a]] += P.bond_w[k, a] * S[P.n + k]
 
 
 @njit(cache=True, error_model="numpy")
 def pull_back_blocks(D, P):
     """Move the virtual nodes' stiffness blocks onto the real nodes they are made from."""
-    off = P.n + P.bond_nodes.shape[0]
+    off = P.n
     for k in range(P.off_geo.shape[0]):
         for c in range(6):
             D[P.off_geo[k, 1], c] += D[off + k, c]
     base = off + P.off_geo.shape[0]
     for k in range(P.ghost_src.shape[0]):
         add_reflected(D, P.ghost_src[k], D[base + k], get(P.ghost_t, k))
-    # p = sum w_a x_a, w >= 0, sum w = 1: each node's share w_a D_p bounds the Hessian
-    for k in range(P.bond_nodes.shape[0]):
-        for a in range(3):
-            for c in range(6):
-                D[P.bond_nodes[k, a], c] += P.bond_w[k, a] * D[P.n + k, c]

@@ -97,7 +97,6 @@ class Model:
         self._clamps: dict[int, tuple[np.ndarray, bool, np.ndarray]] = {}
         self._offsets: list[tuple[int, float]] = []
         self._offset_ref: list[np.ndarray] = []  # their reference positions, mm
-        self._bonds: list[tuple[np.ndarray, np.ndarray]] = []  # (3 nodes, 3 weights)
         self._triangles: list[tuple[np.ndarray, float, float, float, bool, int, float]] = []
         self._rods: list[_Rod] = []
         self._dielectric: tuple[np.ndarray, np.ndarray] | None = None  # triangles, flat areas
@@ -112,8 +111,8 @@ class Model:
 
     @property
     def n_virtual(self) -> int:
-        """Number of virtual nodes made so far (bond points, then offsets)."""
-        return len(self._bonds) + len(self._offsets)
+        """Number of virtual nodes made so far (offsets)."""
+        return len(self._offsets)
 
     def _index(self, name: str, i: int, allow_virtual: bool = False) -> int:
         limit = self.n + (self.n_virtual if allow_virtual else 0)
@@ -195,26 +194,8 @@ class Model:
         return L0
 
     def _ref_positions(self) -> np.ndarray:
-        """Reference positions of real and virtual (bond point, offset) nodes."""
-        bonds = [w @ self.nodes[i] for i, w in self._bonds]
-        return np.vstack([self.nodes, *bonds, *self._offset_ref])
-
-    def bond_point(self, nodes: Sequence[int], weights: Sequence[float]) -> int:
-        """A virtual node at sum_a w_a x_a of three real nodes (w >= 0, sum 1): a film point
-        inside a membrane triangle, e.g. where the film turns a strip edge (its orientation).
-
-        Bond points are made before any offset node. Returns the virtual node's index.
-        """
-        i = self._indices("bond point nodes", nodes)
-        w = np.asarray(weights, dtype=float).reshape(-1)
-        if i.size != 3 or w.size != 3:
-            raise DRError("a bond point needs three nodes and three weights")
-        if not np.all(np.isfinite(w)) or np.any(w < -1e-12) or abs(w.sum() - 1.0) > 1e-9:
-            raise DRError("bond point weights must be >= 0 and sum to 1 (barycentric)")
-        if self._offsets:
-            raise DRError("make bond points before offset nodes (offsets may stand on them)")
-        self._bonds.append((i, np.clip(w, 0.0, None)))
-        return self.n + len(self._bonds) - 1
+        """Reference positions of real and virtual (offset) nodes."""
+        return np.vstack([self.nodes, *self._offset_ref])
 
     def add_link(
         self,
@@ -570,8 +551,6 @@ class Model:
         cl_seg_cluster = np.repeat(np.arange(len(self._clusters)), [c[0].size - 1 for c in self._clusters])
         P = Packed(
             n=n,
-            bond_nodes=np.array([i for i, _ in self._bonds], dtype=np.int64).reshape(-1, 3),
-            bond_w=np.array([w for _, w in self._bonds], dtype=float).reshape(-1, 3),
             ghost_src=g_src,
             ghost_clamp=g_clamp,
             ghost_t=g_t,

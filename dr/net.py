@@ -1,11 +1,15 @@
-"""The paper's discretisation of a DEMES scene: frame nodes and a triangular membrane lattice.
+"""The paper's discretisation of a DEMES scene: frame nodes, their bond nodes and a triangular
+membrane lattice.
 
 The lattice is triangular with spacing s = base side / divisions, aligned with the base side
 and anchored at its first corner, so that for the triangle its lines run parallel to the three
-sides. Each lattice line, clipped by the frame outline, is one cable from frame to frame
-through the lattice nodes inside. Frame nodes sit where cables meet the frame, plus the
-landmarks (base midpoint, apex, fillet ends where the clamps are) and enough extra nodes that
-no frame segment is much longer than s.
+sides. The film meets the strip on the *bond line*, ``frame.bond_lever`` inside the frame
+centreline (the strip's inner edge by default), the same line at every mesh density: each
+lattice line, clipped by the bond line, is one cable from bond node to bond node through the
+lattice nodes inside, and the row of film between the centreline and the bond line is a band
+of constant-strain triangles, as in the FEM's mesh. Frame nodes sit where cables meet the bond
+line (each with its bond node beside it), plus the landmarks (base midpoint, apex, fillet ends
+where the clamps are) and enough extra nodes that no frame segment is much longer than s.
 """
 
 from __future__ import annotations
@@ -21,7 +25,7 @@ DIRECTIONS = np.array([[1.0, 0.0], [0.5, np.sqrt(3) / 2], [-0.5, np.sqrt(3) / 2]
 """Lattice line directions: parallel to the base and to the triangle's other two sides."""
 
 INNER_MARGIN = 0.35
-"""Lattice nodes closer than this many spacings to the frame are dropped (no slivers)."""
+"""Lattice nodes closer than this many spacings to the bond line are dropped (no slivers)."""
 
 MERGE = 0.3
 """Frame points closer than this many spacings along the frame share one node."""
@@ -35,19 +39,23 @@ class Net:
     ----------
     nodes
         (n, 3) positions, mm: frame nodes first (in order along the frame from the base
-        midpoint), then the membrane's inner lattice nodes.
+        midpoint), then their bond nodes (same order), then the membrane's lattice nodes.
     n_frame
-        Number of frame nodes.
+        Number of frame nodes (and of bond nodes).
     frame_s
         (n_frame,) arc length of each frame node, mm.
     cables
-        Node chains from frame to frame along the lattice lines.
+        Node chains from bond node to bond node along the lattice lines.
     cable_film
-        (c,) area of film each cable stands for, mm^2: the part of the region nearer to its
-        lattice line than to the next kept line of its family (shared by length among the runs
-        of one line), so that each family of cables carries the whole film up to the frame.
+        (c,) area of film each cable stands for, mm^2: the part of the polygon of bond nodes
+        nearer to its lattice line than to the next kept line of its family (shared by length
+        among the runs of one line), so that each family of cables carries the whole film
+        inside it.
+    row_triangles
+        (r, 3) counter-clockwise film triangles between the centreline and the bond line.
     triangles
-        (t, 3) counter-clockwise membrane triangles over all nodes (display, strip plane).
+        (t, 3) counter-clockwise membrane triangles over all nodes, the row first (display,
+        fold and crossing checks).
     spacing
         Lattice spacing s, mm.
     length
@@ -59,39 +67,38 @@ class Net:
     frame_s: np.ndarray
     cables: list[np.ndarray]
     cable_film: np.ndarray
+    row_triangles: np.ndarray
     triangles: np.ndarray
     spacing: float
     length: float
+
+    @property
+    def bond_nodes(self) -> np.ndarray:
+        """(n_frame,) the bond node of each frame node."""
+        return self.n_frame + np.arange(self.n_frame)
 
     def frame_node_at(self, s: float) -> int:
         """Index of the frame node nearest to arc length s (mm)."""
         return int(_nearest_periodic(self.frame_s, np.array([s]), self.length)[0])
 
-    def edge_inner_nodes(self) -> np.ndarray:
-        """For each frame edge (k, k+1 mod n_frame), the third node of its membrane triangle."""
-        nf = self.n_frame
-        out = np.full(nf, -1, dtype=np.int64)
-        for t in self.triangles:
-            for a, b, c in ((t[0], t[1], t[2]), (t[1], t[2], t[0]), (t[2], t[0], t[1])):
-                if a < nf and b < nf and (b - a) % nf == 1:
-                    out[a] = c
-        if np.any(out < 0):
-            raise SceneError("mesh.divisions is too small: a frame edge has no membrane triangle")
-        return out
 
-
-
-def build_net(outline: Outline, divisions: int, landmarks: list[float]) -> Net:
-    """Lattice, cables, frame nodes and triangles for ``outline`` at ``divisions`` per base side.
+def build_net(outline: Outline, divisions: int, landmarks: list[float], lever: float) -> Net:
+    """Lattice, cables, frame and bond nodes and triangles for ``outline`` at ``divisions`` per
+    base side, the film bonded ``lever`` mm inside the centreline.
 
     ``landmarks`` are arc lengths (mm) that must carry a frame node (clamps, apex, ...).
     """
     s = outline.side_length / divisions
     origin = outline.vertices[0]
     h = s * np.sqrt(3) / 2
+    # the bond line as a fine polygon, each vertex with the centreline arc length it stands on
+    poly_s = outline.polyline(s / 32)[1]
+    bond_poly = outline.inner_offset(poly_s, lever)
+    if np.any(outline.distance(bond_poly) < lever * (1 - 1e-6)) or _shoelace(bond_poly) <= 0.0:
+        raise SceneError("the bond line (frame.bond_lever inside the outline) folds over itself: the frame is "
+                         "too sharply bent for its strip; raise frame.corner_radius or lower frame.bond_lever")
     # lattice points covering the outline's bounding box
-    poly = outline.polyline(s / 8)[0]
-    lo, hi = poly.min(axis=0) - s, poly.max(axis=0) + s
+    lo, hi = bond_poly.min(axis=0) - s, bond_poly.max(axis=0) + s
     jmax = int(np.ceil((hi[1] - origin[1]) / h)) + 1
     jmin = int(np.floor((lo[1] - origin[1]) / h)) - 1
     span = int(np.ceil((hi[0] - lo[0]) / s)) + abs(jmin) + jmax + 2
@@ -99,24 +106,24 @@ def build_net(outline: Outline, divisions: int, landmarks: list[float]) -> Net:
     ii, jj = np.meshgrid(np.arange(i0, i0 + span + 2 * jmax), np.arange(jmin, jmax + 1), indexing="ij")
     ii, jj = ii.ravel(), jj.ravel()
     pts = origin + ii[:, None] * s * DIRECTIONS[0] + jj[:, None] * s * DIRECTIONS[1]
-    inside = outline.contains(pts, spacing=s / 8) & (outline.distance(pts) > INNER_MARGIN * s)
+    inside = outline.contains(pts, spacing=s / 8) & (outline.distance(pts) > lever + INNER_MARGIN * s)
     inner_xy = pts[inside]
     if inner_xy.shape[0] < 3:
         raise SceneError(
             f"mesh.divisions = {divisions} is too coarse: only {inner_xy.shape[0]} membrane nodes "
-            "fit inside the frame; use more divisions"
+            "fit inside the bond line; use more divisions (or a smaller frame.bond_lever)"
         )
 
-    # cables: each lattice line, split into runs between its frame crossings
+    # cables: each lattice line, split into runs between its bond-line crossings
     raw_cables: list[tuple[float, np.ndarray, float]] = []  # (s_start, inner ids, s_end)
     raw_line: list[tuple[int, int]] = []  # (family, line number) of each raw cable
     for family, direction in enumerate(DIRECTIONS):
         normal = np.array([-direction[1], direction[0]])
         line_of = np.round((inner_xy - origin) @ normal / h).astype(int)
-        offsets = (poly - origin) @ normal / h
+        offsets = (bond_poly - origin) @ normal / h
         for k in range(int(np.floor(offsets.min())), int(np.ceil(offsets.max())) + 1):
             p0 = origin + k * h * normal
-            t_cross, s_cross = outline.intersect_line(p0, direction)
+            t_cross, s_cross = _crossings(bond_poly, poly_s, outline.length, p0, direction)
             on_line = np.flatnonzero(line_of == k)
             t_nodes = (inner_xy[on_line] - p0) @ direction
             for m in range(0, t_cross.size - 1, 2):
@@ -134,28 +141,66 @@ def build_net(outline: Outline, divisions: int, landmarks: list[float]) -> Net:
     ends_node = _nearest_periodic(frame_s, ends, length)
     nc = len(raw_cables)
     nf = frame_s.size
-    frame_xy = outline.evaluate(frame_s)[0]
     cables, lines = [], []
     for k, (_, run, _) in enumerate(raw_cables):
         a, b = ends_node[k], ends_node[k + nc]
         if a == b:
             continue  # both ends snapped to one node: a cable of no length
-        cables.append(np.concatenate([[a], nf + run, [b]]).astype(np.int64))
+        cables.append(np.concatenate([[nf + a], 2 * nf + run, [nf + b]]).astype(np.int64))
         lines.append(raw_line[k])
-    nodes_xy = np.vstack([frame_xy, inner_xy])
+    nodes_xy = np.vstack([outline.evaluate(frame_s)[0], outline.inner_offset(frame_s, lever), inner_xy])
     lengths = np.array([np.linalg.norm(np.diff(nodes_xy[c], axis=0), axis=1).sum() for c in cables])
-    film = _tributary_areas(outline.polyline(s / 32)[0], origin, h, np.array(lines).reshape(-1, 2), lengths)
-    seg = np.stack([np.arange(nf), (np.arange(nf) + 1) % nf], axis=1)
-    tri = triangle.triangulate({"vertices": nodes_xy, "segments": seg}, "pQ")
-    if tri["vertices"].shape[0] != nodes_xy.shape[0]:
+    # the cables carry the film inside the polygon of bond nodes, the row the rest: together
+    # the polygon of frame nodes, as the FEM's mesh on the same frame nodes
+    film = _tributary_areas(nodes_xy[nf:2 * nf], origin, h, np.array(lines).reshape(-1, 2), lengths)
+    row = _row_triangles(nodes_xy, nf)
+    loop = np.stack([np.arange(nf), (np.arange(nf) + 1) % nf], axis=1)
+    inner = nodes_xy[nf:]
+    tri = triangle.triangulate({"vertices": inner, "segments": loop}, "pQ")
+    if tri["vertices"].shape[0] != inner.shape[0]:
         raise SceneError("mesh.divisions is too small for this outline: the membrane cannot be triangulated")
-    t = tri["triangles"].astype(np.int64)
+    t = tri["triangles"].astype(np.int64) + nf
     e1, e2 = nodes_xy[t[:, 1]] - nodes_xy[t[:, 0]], nodes_xy[t[:, 2]] - nodes_xy[t[:, 0]]
     area2 = e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]
     t[area2 < 0] = t[area2 < 0][:, ::-1]
     nodes = np.zeros((nodes_xy.shape[0], 3))
     nodes[:, :2] = nodes_xy
-    return Net(nodes, nf, frame_s, cables, film, t, s, length)
+    return Net(nodes, nf, frame_s, cables, film, row, np.vstack([row, t]), s, length)
+
+
+def _crossings(poly: np.ndarray, poly_s: np.ndarray, length: float, point: np.ndarray,
+               direction: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Crossings of the line ``point + t direction`` with the closed polygon ``poly`` whose
+    vertices stand on centreline arc lengths ``poly_s``: line parameters t (mm, sorted) and the
+    arc lengths s there (interpolated along the crossed edge)."""
+    nxt, s_next = np.roll(poly, -1, axis=0), np.roll(poly_s, -1)
+    s_next = np.where(s_next < poly_s, s_next + length, s_next)
+    normal = np.array([-direction[1], direction[0]])
+    da, db = (poly - point) @ normal, (nxt - point) @ normal
+    cut = (da > 0) != (db > 0)  # half-open: a vertex on the line counts once
+    f = da[cut] / (da[cut] - db[cut])
+    t = (poly[cut] + f[:, None] * (nxt[cut] - poly[cut]) - point) @ direction
+    s_at = np.mod(poly_s[cut] + f * (s_next[cut] - poly_s[cut]), length)
+    order = np.argsort(t)
+    return t[order], s_at[order]
+
+
+def _row_triangles(nodes_xy: np.ndarray, nf: int) -> np.ndarray:
+    """The band between the frame loop (nodes 0..nf-1) and the bond loop (nf..2nf-1): each quad
+    (frame k, frame k+1, bond k+1, bond k) split along its shorter diagonal, counter-clockwise.
+    Equal diagonals (a rectangle) are split by the side of x = 0 the quad is on, so that a
+    mirror-symmetric frame gets a mirror-symmetric row."""
+    f0 = np.arange(nf)
+    f1 = (f0 + 1) % nf
+    b0, b1 = nf + f0, nf + f1
+    d_f0 = np.linalg.norm(nodes_xy[b1] - nodes_xy[f0], axis=1)
+    d_f1 = np.linalg.norm(nodes_xy[b0] - nodes_xy[f1], axis=1)
+    tie = np.abs(d_f0 - d_f1) <= 1e-9 * (d_f0 + d_f1)
+    x_mid = nodes_xy[f0, 0] + nodes_xy[f1, 0]
+    along_f0 = np.where(tie, x_mid > 0, d_f0 < d_f1)
+    first = np.where(along_f0[:, None], np.column_stack([f0, f1, b1]), np.column_stack([f0, f1, b0]))
+    second = np.where(along_f0[:, None], np.column_stack([f0, b1, b0]), np.column_stack([f1, b1, b0]))
+    return np.vstack([first, second]).astype(np.int64)
 
 
 def _tributary_areas(poly: np.ndarray, origin: np.ndarray, h: float, lines: np.ndarray,

@@ -355,9 +355,7 @@ def make_result(
     n = P.n
     # display: offsets and ghosts are drawn at the frame node they belong to
     real = np.arange(X.shape[0])
-    nb = P.bond_nodes.shape[0]
-    real[n : n + nb] = P.bond_nodes[np.arange(nb), np.argmax(P.bond_w, axis=1)] if nb else real[n : n + nb]
-    real[n + nb : n + nb + P.off_geo.shape[0]] = P.off_geo[:, 1]
+    real[n : n + P.off_geo.shape[0]] = P.off_geo[:, 1]
     blocks: dict[str, CellBlock] = {}
     mem = ~P.link_frame
     if mem.any():

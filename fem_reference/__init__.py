@@ -21,6 +21,6 @@ states, a stop at self-contact, and mesh sequencing for refined levels.
 
 from .convergence import ConvergenceStudy, Estimate, convergence_study, richardson
 from .errors import FEMError
-from .solve import solve, sweep
+from .solve import solve, solve_from, sweep
 
-__all__ = ["solve", "sweep", "convergence_study", "richardson", "ConvergenceStudy", "Estimate", "FEMError"]
+__all__ = ["solve", "solve_from", "sweep", "convergence_study", "richardson", "ConvergenceStudy", "Estimate", "FEMError"]

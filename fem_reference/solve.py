@@ -477,3 +477,36 @@ def sweep(scene: Scene, prestretches: Sequence[float], refinement: int | None = 
 def solve(scene: Scene, refinement: int | None = None) -> Result:
     """Equilibrium at ``scene.prestretch`` (continuation from the flat state inside)."""
     return next(iter(sweep(scene, [scene.prestretch], refinement)))
+
+
+_NEWTON_STATUS = {"saddle": "unstable", "line_search": "diverged"}
+"""Newton's own stops, as the path reports them (:func:`make_result`)."""
+
+
+def solve_from(scene: Scene, x_start: np.ndarray, refinement: int | None = None) -> Result:
+    """The stable equilibrium at ``scene.prestretch`` that Newton reaches from ``x_start``.
+
+    Newton (with eigenmode steps off a saddle) starts at ``x_start`` (n, 3) mm, a state on this
+    problem's nodes, e.g. DR's on the same discrete problem, with no continuation path: it
+    polishes a state found another way and says whether it is stable (``info['stable']``,
+    ``info['lowest_eigenvalue_N_per_mm3']``). How a second stable state is checked.
+    """
+    level = _refinement(scene, refinement)
+    problem = DemesProblem(scene, level, scene.fem.element)
+    x = np.asarray(x_start, dtype=float)
+    if x.shape != problem.X.shape or not np.all(np.isfinite(x)):
+        raise SceneError(f"x_start must be finite positions (n, 3) on the FEM's nodes at refinement {level} "
+                         f"({problem.X.shape[0]} nodes), got shape {x.shape}; give a state of this mesh")
+    t0 = time.perf_counter()
+    lam = scene.prestretch
+    path = Continuation(problem)
+    nr, pushes, _ = path.solve_at(lam, problem.hold(x))
+    status, detail = _NEWTON_STATUS.get(nr.status, nr.status), ""
+    if nr.converged:
+        found = path.contact(nr.y)
+        if found is not None:
+            status, detail = ("film_contact" if isinstance(found, Crossing) else "self_contact"), found.describe()
+    problem.lam = lam
+    out = Outcome(nr.y if nr.converged else problem.hold(x), lam, status, detail,
+                  [StepRecord(lam, nr.iterations, nr.history, pushes)])
+    return make_result(problem, out, lam, time.perf_counter() - t0, nr.iterations)

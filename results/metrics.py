@@ -40,7 +40,10 @@ def bending_angle(x: np.ndarray, s: np.ndarray, length: float, s_apex: float, si
     turns continuously from the flat base (unwrapped along it), and the angle is the turn of
     atan2 nearest the mean of that direction (a chord is a mean of the directions along it).
     Steps shorter than a tenth of the median step (along the held base the midline stands
-    still, up to the spline's wiggle, and it slows to a stop at the apex) are skipped.
+    still, up to the spline's wiggle, and it slows to a stop at the apex) are skipped, and so
+    are the steps before the midline first leaves the flat plane (by 1e-3 of ``size``): there
+    the taped base's chords can make it step back near the corners, a reversal that unwrapping
+    reads as a half turn (it read 390 deg for a 30 deg curl at 6 divisions).
     """
     t = np.linspace(0.0, s_apex, samples)
     mid = 0.5 * (frame_at(x, s, length, t) + frame_at(x, s, length, -t))
@@ -49,6 +52,9 @@ def bending_angle(x: np.ndarray, s: np.ndarray, length: float, s_apex: float, si
     step = np.diff(mid[:, 1:], axis=0)
     w = np.hypot(step[:, 0], step[:, 1])
     keep = (w > 0.1 * np.median(w)) & (w > 1e-9 * size)
+    if not keep.any():
+        return theta
+    keep &= np.cumsum(np.abs(mid[1:, 2]) > 1e-3 * size) > 0
     if not keep.any():
         return theta
     psi = np.degrees(np.unwrap(np.arctan2(step[keep, 1], step[keep, 0])))

@@ -165,6 +165,12 @@ class Outline:
             points[sel], tangents[sel] = p, t
         return points, tangents
 
+    def inner_offset(self, s: np.ndarray, distance: float) -> np.ndarray:
+        """Points (m, 2) ``distance`` mm inside the outline, along the inward normal at arc
+        lengths s (mm): the strip's bond line for ``distance = frame.bond_lever``."""
+        p, t = self.evaluate(s)
+        return p + distance * np.column_stack([-t[:, 1], t[:, 0]])
+
     def breakpoints(self) -> np.ndarray:
         """Arc lengths (mm) where pieces meet (fillet ends), ascending, 0 included."""
         return np.array([p.s_start for p in self.pieces])

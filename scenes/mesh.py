@@ -118,8 +118,7 @@ def _triangulate(points: np.ndarray, loop: int, extra_segments: np.ndarray, h: f
 
 def _bond_points(scene: Scene, s: np.ndarray) -> np.ndarray:
     """Points ``frame.bond_lever`` inside the outline at arc lengths s: the bond line."""
-    p, t = scene.outline.evaluate(s)
-    return p + scene.frame.lever * np.column_stack([-t[:, 1], t[:, 0]])
+    return scene.outline.inner_offset(s, scene.frame.lever)
 
 
 def _spaced(a: float, b: float, h: float) -> np.ndarray:

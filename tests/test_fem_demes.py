@@ -263,3 +263,16 @@ def test_a_spent_time_limit_stops_the_path_with_a_named_status():
     assert res.status == "time_limit" and not res.converged
     assert res.prestretch == 1.0  # the last state the path reached: the flat one
     assert "fem.time_limit" in res.message and "the requested lambda = 1.300 was not reached" in res.message
+
+
+def test_solve_from_a_state_of_the_path_stays_there_and_names_bad_starts():
+    """Newton from the path's own converged state stays on it (the polish of a DR state);
+    a start of the wrong shape is refused with the argument named."""
+    scene = coarse("strip")
+    path = fem_reference.solve(scene, refinement=0)
+    again = fem_reference.solve_from(scene, path.x, refinement=0)
+    assert again.converged and again.info["stable"]
+    assert np.abs(again.x - path.x).max() < 1e-8 * scene.outline.side_length
+    assert again.iterations <= 3
+    with pytest.raises(scenes.SceneError, match="x_start"):
+        fem_reference.solve_from(scene, path.x[:-1], refinement=0)

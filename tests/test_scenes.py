@@ -115,3 +115,18 @@ def test_bending_angle_is_continuous_past_270_degrees():
     # along a sweep, the turn nearest the previous state's angle
     res.info["previous_bending_angle"] = angles[-1] - 350.0
     assert res.bending_angle == pytest.approx(angles[-1] - 360.0)
+
+
+def test_bending_angle_ignores_the_flat_base_stepping_back():
+    """A taped base whose corner chords make the midline step back in the flat plane (as a
+    coarse net's frame does) is no half turn: a 30 deg curl reads 30 deg, not 390."""
+    from results import Result
+
+    scene = scenes.load("demes_paper")
+    pts, s, closed_form = curled_frame(scene, np.radians(30.0))
+    corner = (pts[:, 1] > 0.5) & (pts[:, 1] < 1.5)  # in the taped fillets, below the curl
+    pts[corner, 1] -= 0.4
+    res = Result(solver="test", x=pts, x0=pts, converged=True, status="converged", message="",
+                 iterations=0, residual=0.0, wall_time=0.0, energy={}, frame_nodes=np.arange(len(s)),
+                 frame_s=s, scene=scene)
+    assert res.bending_angle == pytest.approx(closed_form, abs=0.05)

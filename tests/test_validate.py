@@ -214,3 +214,20 @@ def test_report_is_against_the_experiment_with_its_csv(report):
     for name in ("experiment_stroke_voltage", "experiment_energy_stroke"):
         assert (out / "figures" / f"{name}.png").exists()
     assert (out / "runs" / "exp_fem_table1" / "exp_fem_table1.pvd").exists()
+
+
+def test_second_states_are_polished_by_the_fem_on_the_same_mesh(report):
+    """The at-once search: every DR state it found is polished by the FEM's Newton on the same
+    discrete problem, so the two angles agree to the solvers' tolerances (DR at 1e-6), and a
+    state is called stable exactly when its lowest eigenvalue is not negative."""
+    out = report[0]
+    rows = read_csv(out / "second_states.csv")
+    assert [float(r["prestretch"]) for r in rows] == list(build_plan(quick=True).get("second_states").prestretches)
+    scene = scenes.load("demes_paper")
+    neutral = 1e-6 * scene.membrane.E * scene.membrane.thickness / scene.outline.side_length**2
+    for r in rows:
+        assert r["status"] == "converged", r
+        assert abs(float(r["theta_found [deg]"]) - float(r["theta_dr_at_once [deg]"])) < 0.05
+        assert (r["stable"] == "yes") == (float(r["lowest_eigenvalue [N/mm^3]"]) > -neutral)
+        assert (r["second_state"] == "yes") == (r["stable"] == "yes" and float(r["shape_distance"]) > 1e-3)
+    assert "## Second stable states" in (out / "report.md").read_text()

@@ -21,6 +21,9 @@ from .plan import NETS, Plan, Run
 from .runner import load_states, run_record
 from .sweep import not_reached
 
+SECOND_STATE = 1e-3
+"""Frame-curve RMS distance (/side) from the path's state above which a found state is another."""
+
 THRESHOLDS = (0.01, 0.001)
 """Shape errors (fraction of the side length) of the 'time to reach' table: 1 % and 0.1 %."""
 
@@ -47,6 +50,7 @@ class Analysis:
     level_costs: list[dict[str, Any]] = field(default_factory=list)
     net_limits: dict[str, Reference] = field(default_factory=dict)  # the nets' own refined limits
     limits: list[dict[str, Any]] = field(default_factory=list)  # DR's and the FEM's limits side by side
+    second_states: list[dict[str, Any]] = field(default_factory=list)  # the search for other stable states
     experiment: Experiment | None = None  # the voltage runs (validation.experiment)
 
     @property
@@ -95,6 +99,7 @@ def analyse(plan: Plan, out_dir: Path) -> Analysis:
     _reference_rows(a)
     _level_costs(a)
     _limits(a)
+    _second_states(a)
     a.experiment = experiment.analyse(plan, out_dir)
     return a
 
@@ -175,6 +180,27 @@ def _difference(x: Result | None, y: Result | None) -> tuple[float, float]:
         return np.nan, np.nan
     rms, _ = x.shape_error(y)
     return rms, x.bending_angle - y.bending_angle
+
+
+def _second_states(a: Analysis) -> None:
+    """Each state the at-once search found, beside the path's state at its pre-stretch (DR
+    matched: the same discrete problem); a second stable state is converged, stable and more
+    than SECOND_STATE from the path's."""
+    for run in a.plan.by_group("second"):
+        for lam, found in sorted(a.states[run.label].items()):
+            path = a.states["dr_matched"].get(lam)
+            row = {"prestretch": lam, "status": found.status,
+                   "theta_path": path.bending_angle if path is not None else np.nan,
+                   "energy_path": path.energy["total"] if path is not None else np.nan,
+                   "theta_dr_at_once": found.info.get("dr_bending_angle", np.nan)}
+            if found.converged:
+                rms, _ = _difference(found, path)
+                row.update(theta_found=found.bending_angle, energy_found=found.energy["total"],
+                           energy_gap=found.energy["total"] - row["energy_path"], shape_distance=rms,
+                           stable=bool(found.info.get("stable")),
+                           lowest_eigenvalue=found.info.get("lowest_eigenvalue_N_per_mm3", np.nan))
+                row["second_state"] = bool(row["stable"] and rms > SECOND_STATE)
+            a.second_states.append(row)
 
 
 def _budget(a: Analysis) -> None:

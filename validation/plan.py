@@ -41,8 +41,8 @@ class Run:
         FEM refinement level.
     group
         'sweep' (the main comparison), 'reference' (FEM levels), 'speed', 'budget', 'drconv'
-        (DR's own refinement), 'netconv' (the nets' own refinement), 'hard', 'experiment'
-        (voltage sweeps).
+        (DR's own refinement), 'netconv' (the nets' own refinement), 'second' (other stable
+        states), 'hard', 'experiment' (voltage sweeps).
     title
         What the run shows, for tables.
     cold
@@ -52,6 +52,10 @@ class Run:
         the scene's pre-stretch, one warm-started path; ``prestretches`` is then empty.
     calibrate
         Fit the scene to the experiment before the voltage run (:func:`validation.calibrate.fit`).
+    polish
+        Newton-polish each (cold) DR state with the FEM on the same mesh
+        (:func:`fem_reference.solve_from`) and keep the FEM's state with its stability: the
+        search for second stable states (group 'second').
     """
 
     label: str
@@ -64,6 +68,7 @@ class Run:
     cold: bool = False
     voltages: tuple[float, ...] = ()
     calibrate: bool = False
+    polish: bool = False
 
 
 @dataclass(frozen=True)
@@ -99,6 +104,7 @@ def build_plan(quick: bool = False) -> Plan:
         speed_lam = 1.3
         dr_meshes, dr_tols = (6, 8, 12), (1e-4, 1e-6)
         hard_lams = (1.0, 1.3)
+        second_lams = (1.15, 1.3)
     else:
         sweep = _levels(1.0, 2.0, 0.1)
         coarse = {}
@@ -106,6 +112,7 @@ def build_plan(quick: bool = False) -> Plan:
         speed_lam = 1.3
         dr_meshes, dr_tols = (10, 14, 20, 28, 40), (1e-4, 1e-5, 1e-6)
         hard_lams = (1.0, 1.3, 1.5)
+        second_lams = _levels(1.1, 1.7, 0.1)  # below first contact (about 1.77)
     runs: list[Run] = [
         Run("dr_paper", "dr", {**coarse, **PAPER_DR}, sweep, title="DR as the paper built it: clustered net, isotropic frame (Table I)"),
         Run("dr_matched", "dr", {**coarse, **MATCHED}, sweep,
@@ -152,6 +159,11 @@ def build_plan(quick: bool = False) -> Plan:
         for net, variant in NETS.items():
             runs.append(Run(f"netconv_{net}_n{n}", "dr", {**variant, "mesh.divisions": n, "dr.tolerance": tight},
                             (speed_lam,), group="netconv", title=f"DR {net} net, strip frame, {n} divisions"))
+    # other stable states: the pre-stretch applied at once from flat (the paper's way; its
+    # transient can land off the quasi-static path), each state polished and checked by the FEM
+    runs.append(Run("second_states", "dr", {**coarse, **MATCHED, "dr.prestretch_step": 0.0, "dr.tolerance": tight},
+                    second_lams, group="second", cold=True, polish=True,
+                    title="DR matched, pre-stretch at once from flat, polished by the FEM (r0)"))
     for k in levels[:3]:  # from the flat state each time: r3 would add minutes for one point
         runs.append(Run(f"speed_fem_r{k}", "fem", {**coarse, **REFERENCE}, (speed_lam,), refinement=k, group="speed",
                         title=f"FEM, refinement {k}", cold=True))

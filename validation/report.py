@@ -18,7 +18,7 @@ import numpy as np
 from results import ENERGY_DEFINITION, atomic_write_text, level_label
 
 from . import experiment
-from .analysis import BRANCH_JUMP, THRESHOLDS, Analysis
+from .analysis import BRANCH_JUMP, SECOND_STATE, THRESHOLDS, Analysis
 from .beam_energy import mismatch_sentence
 from .compare import METRIC_UNITS
 from .tables import format_cell, write_csv
@@ -128,6 +128,19 @@ BRANCH = (
     ("lowest_eigenvalue", "lowest eigenvalue [N/mm^3]", ".3g"),
     ("move", "move from previous level [/side]", ".3g"),
 )
+SECOND = (
+    ("prestretch", "lambda", "level"),
+    ("theta_path", "path: theta [deg]", ".2f"),
+    ("energy_path", "path: energy [N mm]", ".4g"),
+    ("theta_dr_at_once", "at once, DR: theta [deg]", ".2f"),
+    ("theta_found", "polished: theta [deg]", ".2f"),
+    ("energy_found", "polished: energy [N mm]", ".4g"),
+    ("energy_gap", "energy above the path's [N mm]", ".3g"),
+    ("shape_distance", "distance [/side]", ".3g"),
+    ("stable", "stable", ""),
+    ("lowest_eigenvalue", "lowest eigenvalue [N/mm^3]", ".3g"),
+    ("second_state", "second stable state", ""),
+)
 REFERENCE = (
     ("prestretch", "lambda", "level"),
     ("levels", "levels", ""),
@@ -232,6 +245,13 @@ def _findings(a: Analysis) -> list[str]:
         else:
             which = [m.upper() for m in ("dr", "fem") if not np.isfinite(r[f"time_{m}"])]
             out.append(f"{r['shape_error']:.1%} shape error is not reached by {' and '.join(which)} in this study.")
+    second = [r for r in a.second_states if r.get("second_state")]
+    if second:
+        out.append("Second stable states (refinement 0, the pre-stretch applied at once): " + "; ".join(
+            f"{level_label(r['prestretch'])}: theta {r['theta_found']:.1f} deg, energy {r['energy_gap']:+.3g} N mm from the "
+            f"path's {r['theta_path']:.1f} deg" for r in second) + ".")
+    elif a.second_states:
+        out.append(f"The search for second stable states found none at {len(a.second_states)} pre-stretch levels.")
     if a.unfinished:
         out.append(f"Runs not finished when this report was written (their missing states are left out): "
                    f"{', '.join(a.unfinished)}.")
@@ -245,7 +265,9 @@ def write_report(a: Analysis, out_dir: Path, figures: dict[str, Path | None], ti
              "bending_angle_diff_vs_fem": "deg", "shape_rms_vs_fem": "-", "time_matched": "s", "time_paper": "s",
              "time_fem_finest": "s", "bending_angle_error": "deg", "apex_y_error": "mm", "apex_z_error": "mm",
              "energy_total_error": "N mm", "shape_uncertainty": "-", "time_per_state": "s", "time_total": "s",
-             "theta_dr": "deg", "theta_dr_error": "deg", "theta_diff": "deg", "shape_distance": "-"}
+             "theta_dr": "deg", "theta_dr_error": "deg", "theta_diff": "deg", "shape_distance": "-",
+             "theta_path": "deg", "theta_found": "deg", "theta_dr_at_once": "deg", "energy_path": "N mm",
+             "energy_found": "N mm", "energy_gap": "N mm", "lowest_eigenvalue": "N/mm^3"}
     files = {
         "states": write_csv(out_dir / "states.csv", a.state_rows, units=units),
         "headline": write_csv(out_dir / "headline.csv", a.headline, units=units),
@@ -259,11 +281,13 @@ def write_report(a: Analysis, out_dir: Path, figures: dict[str, Path | None], ti
         "reference_table": write_csv(out_dir / "reference_table.csv", a.reference_table, units=units),
         "level_costs": write_csv(out_dir / "fem_levels.csv", a.level_costs, units=units),
         "limits": write_csv(out_dir / "limits.csv", a.limits, units=units),
+        "second_states": write_csv(out_dir / "second_states.csv", a.second_states, units=units),
     }
     everything = {"headline": a.headline, "speed": a.speed_rows, "time_to_error": a.reach, "error_budget": a.budget,
                   "hard_cases": a.hard, "reference": a.reference_rows, "branches": a.branch_rows,
                   "first_contact": a.first_contact, "reference_table": a.reference_table,
-                  "fem_levels": a.level_costs, "limits": a.limits, "states": a.state_rows,
+                  "fem_levels": a.level_costs, "limits": a.limits, "second_states": a.second_states,
+                  "states": a.state_rows,
                   "runs": a.records, "units": units}
     files["json"] = atomic_write_text(out_dir / "metrics.json", json.dumps(_plain(everything), indent=1))
     lam = a.plan.speed_prestretch
@@ -294,6 +318,14 @@ def write_report(a: Analysis, out_dir: Path, figures: dict[str, Path | None], ti
             "First frame-frame or frame-film contact: the bracket each level's path found (bisection to 1e-3 in "
             "pre-stretch) and the value extrapolated over the levels (Richardson), its error estimate plus half the "
             "finest bracket.", Table(FIRST_CONTACT, a.first_contact)]),
+        Section("Second stable states", [
+            "The path above is one quasi-static branch. To look for others, DR applies each pre-stretch at once from "
+            "the flat state (as the paper did: the pseudo-dynamic transient can settle off the path) on the matched "
+            "model at refinement 0, and the FEM's Newton on the same mesh polishes that state and checks its stability "
+            "(lowest eigenvalue of the tangent). A polished state that is stable and more than "
+            f"{SECOND_STATE:g} of the side from the path's state is a second stable state; both are listed with their "
+            "energies. A search from one start per pre-stretch finds some other states, not all.",
+            Table(SECOND, a.second_states)]),
         Section("Energy against stroke", [ENERGY_DEFINITION, mismatch_sentence(),
                                           "Strain energy split into membrane and frame, against the stroke from the most "
                                           "bent state; dotted: the membrane part by the paper's formula.",

@@ -78,7 +78,8 @@ def _states(run: Run, scene: Any, done: dict[float, Result]):
         import dr
 
         if run.cold:
-            return (dr.solve(scene, lam) for lam in todo)
+            found = (dr.solve(scene, lam) for lam in todo)
+            return (_polished(res) for res in found) if run.polish else found
         finished = [done[lam] for lam in sorted(done) if done[lam].converged]
         return dr.sweep(scene, todo, start=finished[-1] if finished else None)
     import fem_reference
@@ -87,6 +88,20 @@ def _states(run: Run, scene: Any, done: dict[float, Result]):
         return (fem_reference.solve(scene.updated(prestretch=lam), refinement=run.refinement) for lam in todo)
     # one continuation path from the flat state: a partly done FEM sweep is redone
     return fem_reference.sweep(scene, run.prestretches, refinement=run.refinement)
+
+
+def _polished(found: Result) -> Result:
+    """The FEM's Newton from DR's state on the same discrete problem: the stable state it is
+    (or leads to), with DR's bending angle and cost beside it."""
+    import fem_reference
+
+    if not found.converged:
+        return found
+    res = fem_reference.solve_from(found.scene, found.x, refinement=found.scene.fem.refinement)
+    res.info.update(dr_bending_angle=found.bending_angle, dr_iterations=found.iterations,
+                    dr_wall_time=found.wall_time)
+    res.wall_time += found.wall_time
+    return res
 
 
 def execute(run: Run, scene_data: dict[str, Any], out_dir: str) -> dict[str, Any]:
@@ -146,7 +161,7 @@ def _as_recorded(run: Run) -> dict[str, Any]:
     """``run`` as its record holds it (through JSON: tuples become lists). The voltage fields
     are left out where they are off, so records written before they existed still match."""
     rec = asdict(run)
-    for key in ("voltages", "calibrate"):
+    for key in ("voltages", "calibrate", "polish"):
         if not rec[key]:
             del rec[key]
     return json.loads(json.dumps(rec))
