@@ -434,7 +434,7 @@ class DRSpec(_Section):
         0.025, non_negative, "", "largest pre-stretch increment on the way to a state (0: all at once)"
     )
     prestretch_step_max: float = spec(
-        0.1, non_negative, "",
+        0.0, non_negative, "",
         "largest pre-stretch increment the path grows to away from the flat state (doubling after each "
         "converged step, halved on a stop); 0: every step dr.prestretch_step")
     step_tolerance: float = spec(
