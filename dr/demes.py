@@ -68,6 +68,9 @@ def build(scene: Scene, prestretch: float | None = None) -> DemesModel:
     """Build the DR model of ``scene`` at ``prestretch`` (default: the scene's)."""
     lam = scene.prestretch if prestretch is None else prestretch_value("pre-stretch", prestretch)
     check_voltage_net(scene, scene.loading.voltage)
+    if scene.frame.film_offset:
+        raise SceneError("frame.film_offset = true (the film on the strip's face) is modelled by the FEM "
+                         "reference only; set frame.film_offset = false for DR")
     if scene.dr.membrane_net == "triangles":
         return _build_triangles(scene, lam)
     if scene.membrane.law != "linear":
@@ -75,9 +78,6 @@ def build(scene: Scene, prestretch: float | None = None) -> DemesModel:
             f"membrane.law = {scene.membrane.law!r}: the DR net models the 'linear' (Hookean cable) "
             f"law only; use dr.membrane_net = 'triangles' or the FEM reference for {scene.membrane.law!r}"
         )
-    if scene.frame.film_offset:
-        raise SceneError("frame.film_offset = true (the film on the strip's face) is modelled by the FEM "
-                         "reference only; set frame.film_offset = false for DR")
     outline = scene.outline
     s_right, s_left = scene.base_region()
     clamps = scene.clamps()
@@ -218,9 +218,6 @@ def _build_triangles(scene: Scene, lam: float) -> DemesModel:
     """Constant-strain triangles on the scene's mesh at ``fem.refinement`` with the frame rod
     of bond points: the FEM reference's discrete problem (docs/discrete-problem.md)."""
     frame = scene.frame
-    if frame.film_offset:
-        raise SceneError("frame.film_offset = true is not modelled with dr.membrane_net = 'triangles'; "
-                         "set frame.film_offset = false or use the 'links' net")
     mesh = membrane_mesh(scene, scene.fem.refinement)
     nodes = np.column_stack([mesh.nodes, np.zeros(len(mesh.nodes))])
     m = Model(nodes)
@@ -302,12 +299,12 @@ def solve(scene: Scene, prestretch: float | None = None, x_start: np.ndarray | N
                     final_checks=dm.final_checks, force_scale=force_scale, damping=st.damping)
     runs: list[Result] = []  # every relaxation, in order (their iterations and times add up)
     path, coarse_failed = [lam], None
-    if coarse is not None and coarse.converged:
-        runs = [coarse, relax(dm.model, tol=st.tolerance, x_start=_coarse_to_fine(scene, coarse.x, dm),
-                              progress=progress, **settings)]
+    if coarse is not None:
+        runs.append(coarse)
+        if coarse.converged:
+            runs.append(relax(dm.model, tol=st.tolerance, x_start=_coarse_to_fine(scene, coarse.x, dm),
+                              progress=progress, **settings))
         coarse_failed = None if runs[-1].converged else runs[-1]
-    elif coarse is not None:
-        coarse_failed = coarse
     if coarse is None or coarse_failed is not None:
         path = _follow_path(scene, dm, x_start, from_prestretch, lam, runs, relax_with=settings, progress=progress)
     res = runs[-1]
