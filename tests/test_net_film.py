@@ -51,5 +51,11 @@ def test_the_nets_bond_the_strip_at_the_lever_at_every_density(divisions):
     across = bond - frame
     assert np.linalg.norm(across, axis=1) == pytest.approx(scene.frame.lever, rel=1e-12)
     assert np.abs(np.sum(across * tangent, axis=1)).max() < 1e-12 * scene.frame.lever
-    # the row of film between the two lines is all there is between them
-    assert net.row_triangles.shape[0] == 2 * net.n_frame
+    # the row of film tiles the band between the two lines: every triangle counter-clockwise,
+    # their areas adding up to the frame polygon less the bond polygon
+    x = net.nodes[:, :2]
+    e1 = x[net.row_triangles[:, 1]] - x[net.row_triangles[:, 0]]
+    e2 = x[net.row_triangles[:, 2]] - x[net.row_triangles[:, 0]]
+    signed = 0.5 * (e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0])
+    assert signed.min() > 0
+    assert signed.sum() == pytest.approx(_area(frame) - _area(bond), rel=1e-12)
