@@ -3,7 +3,7 @@
 The pre-stretched state is found as in :func:`fem_reference.sweep` (continuation in pre-stretch
 from the flat state, at zero voltage). The voltage is then raised in steps, each Newton solve
 starting from a secant predictor in V^2 (the energy is linear in V^2). A state is accepted only
-if it is stable: the tangent's factor has no negative pivot, or its lowest eigenvalue is neutral
+if it is stable: the tangent is positive definite (its Cholesky factor exists), or its lowest eigenvalue is neutral
 (a slack film). A step that fails is halved; when the step in V falls below ``MIN_STEP_V`` the
 branch has ended at a limit point: a long Newton solve looks for a stable state to snap to (it
 is reported), and if there is none the path stops with status ``pull_in`` and the voltage
@@ -79,7 +79,7 @@ class VoltagePath:
     def _stable(self, nr: NewtonResult) -> bool:
         if not nr.converged:
             return False
-        if nr.negative_pivots == 0:
+        if nr.positive_definite:
             return True
         try:
             return lowest_free_mode(self.problem, nr.y)[0] > -self.neutral
