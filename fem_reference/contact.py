@@ -50,21 +50,26 @@ def segment_distances(p0: np.ndarray, p1: np.ndarray, q0: np.ndarray, q1: np.nda
 
 
 def frame_contact(x: np.ndarray, held: np.ndarray, threshold: float) -> Contact | None:
-    """Closest approach of non-neighbouring segments of the closed frame polyline x (m, 3).
+    """Closest approach of distant segments of the closed frame polyline x (m, 3).
 
-    Segments that share a node, or that are both held, are not compared. Contact when the
-    centrelines come closer than ``threshold`` (mm, the strip thickness).
+    Contact when the centrelines come closer than ``threshold`` (mm, the strip thickness).
+    Segments that are both held are not compared, nor segments less than pi/2 * threshold apart
+    along the frame: to bring two of its points within ``threshold`` the centreline must turn
+    back at least through a half circle of that diameter, so closer pairs are the rod's own
+    chord, not contact (segments shorter than the thickness, as on fine meshes, would otherwise
+    touch their neighbours' neighbours).
     """
-    m = x.shape[0]
     a, b = x, np.roll(x, -1, axis=0)
     seg_held = held & np.roll(held, -1)
-    length = np.linalg.norm(b - a, axis=1).max()
-    pairs = np.array(sorted(cKDTree(0.5 * (a + b)).query_pairs(length + threshold)), dtype=int)
+    lengths = np.linalg.norm(b - a, axis=1)
+    pairs = np.array(sorted(cKDTree(0.5 * (a + b)).query_pairs(lengths.max() + threshold)), dtype=int)
     if pairs.size == 0:
         return None
-    i, j = pairs[:, 0], pairs[:, 1]
-    gap = np.minimum(np.abs(i - j), m - np.abs(i - j))
-    keep = (gap > 1) & ~(seg_held[i] & seg_held[j])
+    i, j = pairs[:, 0], pairs[:, 1]  # i < j
+    start = np.concatenate([[0.0], np.cumsum(lengths)])  # arc length at each node
+    between = start[j] - start[i + 1]  # the segments strictly between, either way round the frame
+    gap = np.minimum(between, start[-1] - (start[j + 1] - start[i]))
+    keep = (j - i > 1) & (j - i < x.shape[0] - 1) & (gap >= 0.5 * np.pi * threshold) & ~(seg_held[i] & seg_held[j])
     i, j = i[keep], j[keep]
     if i.size == 0:
         return None

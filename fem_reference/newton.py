@@ -13,6 +13,7 @@ with the shift below it.
 from __future__ import annotations
 
 import time
+from collections import Counter
 from dataclasses import dataclass, field
 from typing import Callable, Protocol
 
@@ -94,6 +95,7 @@ class _Symbolic:
     def __init__(self) -> None:
         self._patterns: dict[int, _Pattern] = {}
         self._stamps: dict[int, int] = {}
+        self.counts: Counter[int] = Counter()  # numeric factorisations by size, failed ones too
 
     def factorise(self, A: sp.csc_matrix) -> tuple[_Pattern, int]:
         """Cholesky-factorise the symmetric A (CSC); raises ArithmeticError if not positive definite."""
@@ -123,6 +125,7 @@ class _Symbolic:
         self._stamps[id(pattern)] = stamp  # the old factor is gone whether or not this one exists
         if pattern.symbolic is None:
             pattern.symbolic = cvxopt.cholmod.symbolic(L, uplo="L")
+        self.counts[n] += 1
         cvxopt.cholmod.numeric(L, pattern.symbolic)
         return pattern, stamp
 
@@ -171,6 +174,11 @@ def factor(A: sp.spmatrix) -> Factor:
         return s * np.asarray(x).ravel()
 
     return Factor(solve, A.shape[0])
+
+
+def factorisation_count(size: int) -> int:
+    """Numeric factorisations of size x size matrices so far in this process (failed included)."""
+    return _SYMBOLIC.counts[size]
 
 
 def is_positive_definite(A: sp.spmatrix) -> bool:

@@ -28,7 +28,8 @@ from scenes.scene import integer_at_least, prestretch_list
 
 from .contact import Contact, frame_contact, membrane_fold
 from .model import DemesProblem
-from .newton import NewtonResult, NotFactorizable, lowest_mode, newton, positive_shift, shift_scale
+from .newton import (NewtonResult, NotFactorizable, factorisation_count, lowest_mode, newton, positive_shift,
+                     shift_scale)
 from .output import blocks, compressed_fraction, paper_formula_membrane_energy, slack_fractions
 
 FIRST_STEP = 0.01
@@ -437,8 +438,9 @@ def sweep(scene: Scene, prestretches: Sequence[float], refinement: int | None = 
     Result
         One per requested pre-stretch, until the path stops (contact, no convergence): the
         state that stopped it is yielded with its status and nothing after it. ``iterations``
-        (Newton iterations on this mesh) and ``wall_time`` (including the coarse guide's work)
-        count since the previous state.
+        (Newton iterations on this mesh), ``info['factorisations']`` (sparse Cholesky
+        factorisations on this mesh) and ``wall_time`` (including the coarser levels' work) count
+        since the previous state.
     """
     lams = _check_prestretches(prestretches)
     level = _refinement(scene, refinement)
@@ -454,6 +456,7 @@ def sweep(scene: Scene, prestretches: Sequence[float], refinement: int | None = 
     steps, theta = 0, None
     for lam in lams:
         t0 = time.perf_counter()
+        factorised = factorisation_count(problem.free.size)
         snapped = len(path.snaps)
         below, alive = None, []
         for guide in guides:
@@ -467,6 +470,7 @@ def sweep(scene: Scene, prestretches: Sequence[float], refinement: int | None = 
         steps += len(out.records)
         res = make_result(problem, out, lam, 0.0, steps)
         res.wall_time = time.perf_counter() - t0
+        res.info["factorisations"] = factorisation_count(problem.free.size) - factorised  # on this mesh
         if theta is not None:
             res.info["previous_bending_angle"] = theta  # the angle is continued along the sweep
         theta = res.bending_angle

@@ -175,6 +175,34 @@ def test_frame_contact_finds_a_crossing_and_ignores_a_circle():
     assert found is not None and found.value < 0.01 and np.linalg.norm(found.where) < 0.05
 
 
+def _hairpin(gap: float, h: float) -> np.ndarray:
+    """A closed loop of segments about h long: two 2 mm legs ``gap`` apart joined by a half
+    circle of diameter ``gap``, and closed round a 2 mm square at the other end."""
+    def line(p, q):
+        n = max(1, int(np.ceil(np.linalg.norm(np.subtract(q, p)) / h)))
+        return np.linspace(p, q, n, endpoint=False)
+    turn = np.linspace(-np.pi / 2, np.pi / 2, max(3, int(np.ceil(np.pi * gap / 2 / h))), endpoint=False)
+    corners = [(0, gap), (0, 1), (-1, 1), (-1, -1), (0, -1), (0, 0)]
+    xy = np.concatenate([line((0, 0), (2, 0)),
+                         np.column_stack([2 + 0.5 * gap * np.cos(turn), 0.5 * gap + 0.5 * gap * np.sin(turn)]),
+                         line((2, gap), (0, gap))] + [line(p, q) for p, q in zip(corners, corners[1:])])
+    return np.column_stack([xy, np.zeros(len(xy))])
+
+
+@pytest.mark.parametrize("h", [0.02, 0.005])
+def test_frame_contact_is_independent_of_the_segment_length(h):
+    """Segments shorter than the contact distance do not touch their neighbours' neighbours; two
+    legs closer than it are in contact, farther apart they are not, at any segment length."""
+    t = 0.127
+    held = np.zeros(2, bool)
+    for gap, touching in ((0.8 * t, True), (1.2 * t, False)):
+        loop = _hairpin(gap, h)
+        found = frame_contact(loop, np.resize(held, len(loop)), t)
+        assert (found is not None) == touching
+        if touching:
+            assert found.value == pytest.approx(gap, rel=1e-6)
+
+
 def test_segment_distance_against_sampling():
     rng = np.random.default_rng(5)
     p0, p1, q0, q1 = rng.standard_normal((4, 50, 3))

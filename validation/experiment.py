@@ -43,7 +43,7 @@ def experiment_runs(coarse: dict[str, Any], quick: bool) -> list:
     from .plan import MATCHED, REFERENCE, Run
 
     mesh = QUICK_MESH if quick else coarse
-    table = _grid(7000.0, 1000.0 if quick else 250.0)
+    table = _grid(7000.0, 1000.0 if quick else 500.0)
     calibrated = _grid(3000.0, 500.0) if quick else CHECK_VOLTAGES
     return [
         Run("exp_fem_table1", "fem", {**mesh, **REFERENCE}, group="experiment", voltages=table,

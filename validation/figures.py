@@ -74,7 +74,7 @@ def energy_stroke(a: Analysis, path: Path) -> Path:
     """
     fig, axes = plt.subplots(1, 2, figsize=(10, 4), sharey=False)
     series = {"dr_paper": a.states["dr_paper"], "dr_matched": a.states["dr_matched"],
-              "reference": {lam: r for lam, r in a.states[f"fem_r{a.plan.reference_levels[-1]}"].items()}}
+              "reference": {lam: r for lam, (_, r) in a.finest_fem.items()}}
     for key, states in series.items():
         ok = sorted((lam, r) for lam, r in states.items() if r.converged)
         if len(ok) < 2:
@@ -85,7 +85,7 @@ def energy_stroke(a: Analysis, path: Path) -> Path:
         e_mem = np.array([r.energy["membrane"] for _, r in ok])
         e_frame = np.array([r.energy["total"] - r.energy["membrane"] for _, r in ok])
         st = STYLE[key]
-        label = st["label"] if key != "reference" else f"FEM, refinement {a.plan.reference_levels[-1]}"
+        label = st["label"] if key != "reference" else "FEM, finest level"
         axes[0].plot(stroke, e_mem + e_frame, st["marker"] + "-", color=st["color"], label=label)
         axes[1].plot(stroke, e_mem, st["marker"] + "-", color=st["color"], label=f"membrane, {label}")
         paper = np.array([r.info.get("energy_membrane_paper_formula", np.nan) for _, r in ok], dtype=float)
@@ -167,7 +167,7 @@ def frame_curves(a: Analysis, path: Path) -> Path:
 def renders(a: Analysis, lam: float, path: Path) -> Path | None:
     """pyvista renders of DR (matched, paper) and FEM states at ``lam``: top, side, perspective;
     None (and a note on stderr) where nothing can render off-screen."""
-    fem = a.states[f"fem_r{a.plan.reference_levels[-1]}"].get(lam)
+    fem = a.finest_fem.get(lam, (None, None))[1]
     shown = [("FEM reference (finest level)", fem), ("DR matched", a.states["dr_matched"].get(lam)),
              ("DR, paper's model", a.states["dr_paper"].get(lam))]
     shown = [(t, r) for t, r in shown if r is not None]

@@ -173,6 +173,7 @@ LEVEL_COSTS = (
     ("elements", "triangles", "d"),
     ("states", "states", "d"),
     ("newton_per_state", "Newton iterations / state", ".0f"),
+    ("factorisations_per_state", "factorisations / state", ".0f"),
     ("time_per_state", "time / state [s]", ".3g"),
     ("time_total", "time, all states [s]", ".3g"),
 )
