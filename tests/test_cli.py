@@ -64,6 +64,9 @@ def test_bad_command_lines_give_one_line_and_exit_code_2(tmp_path, capsys):
         (["solve", "--prestretch", "1.1", "--out", str(afile)], "is a file, not a folder"),
         (["solve", "--prestretch", "1.1", "--out", str(afile / "sub")], "cannot be written"),
         (["bench", "--repeats", "0"], "--repeats 0"),
+        (["bench", "--fem", "--levels", "0", "7"], "--levels 0 7"),
+        (["bench", "--fem", "--prestretch", "1.1", "1.3"], "give one pre-stretch"),
+        (["bench", "--fem", "--prestretch", "0.9"], "--prestretch"),
         (["fem", "--refinement", "99", "--prestretch", "1.1"], "fem.refinement"),
         (["solve", "--set", "mesh.divisions=" + "9" * 5000], "mesh.divisions"),
     ]

@@ -321,7 +321,8 @@ def _reference_rows(a: Analysis) -> None:
 def _limits(a: Analysis) -> None:
     """Per pre-stretch, DR's refined limit (the matched model on doubling meshes) beside the
     FEM's: one discrete problem refined by two solvers. 'agree' when the bending angles differ
-    by less than the sum of their error estimates."""
+    by less than the sum of their error estimates; ``dr_levels`` says whether DR's estimate has
+    an observed order (three levels) or an assumed one (two)."""
     for lam in a.plan.sweep:
         dr_ref = a.dr_limits.get(lam)
         fem_ref = a.references.get(lam)
@@ -332,6 +333,7 @@ def _limits(a: Analysis) -> None:
             row[f"theta_{key}"] = ref.values["bending_angle"] if ref else np.nan
             row[f"theta_{key}_error"] = ref.errors["bending_angle"] if ref else np.nan
             row[f"shape_uncertainty_{key}"] = ref.shape_uncertainty if ref else np.nan
+        row["dr_levels"] = len(dr_ref.levels) if dr_ref else 0
         if dr_ref is not None and fem_ref is not None:
             row["theta_diff"] = row["theta_dr"] - row["theta_fem"]
             row["shape_distance"] = metrics_between_references(dr_ref, fem_ref)

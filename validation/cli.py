@@ -212,14 +212,26 @@ def cmd_bench(args: argparse.Namespace) -> int:
 
     if not 1 <= args.repeats <= 100:
         raise DemesError(f"--repeats {args.repeats}: give 1 to 100 runs per case")
+    from .tables import format_table
+
+    if args.fem:
+        from . import bench_fem
+
+        if not all(0 <= k <= 3 for k in args.levels):
+            raise DemesError(f"--levels {' '.join(map(str, args.levels))}: give levels 0 to 3")
+        if args.prestretch is not None and len(args.prestretch) != 1:
+            raise DemesError("--prestretch: --fem times one state; give one pre-stretch, e.g. 1.3")
+        lam = prestretch_list("--prestretch", args.prestretch or [1.3])[0]
+        fem_rows = bench_fem.rows(levels=tuple(args.levels), prestretch=lam, repeats=args.repeats)
+        print(json.dumps(fem_rows, indent=1) if args.json else format_table(fem_rows, bench_fem.COLUMNS))
+        return 0
     if not args.strip:
         return bench.main(repeats=args.repeats)
     from . import bench_strip
-    from .tables import format_table
 
     if not 0 <= args.refinement <= 3:
         raise DemesError(f"--refinement {args.refinement}: give 0 to 3 (each halves the element size)")
-    lams = sorted(set(prestretch_list("--prestretch", args.prestretch)))
+    lams = sorted(set(prestretch_list("--prestretch", args.prestretch or [1.1, 1.3, 1.5])))
     rows = bench_strip.rows(nets=args.nets, dampings=args.dampings, prestretches=lams,
                             refinement=args.refinement, repeats=args.repeats, fem=not args.no_fem)
     if args.json:
@@ -284,10 +296,14 @@ def build_parser() -> argparse.ArgumentParser:
                    choices=["triangles", "links", "clustered"], help="with --strip: dr.membrane_net values")
     p.add_argument("--dampings", nargs="+", default=["kinetic", "viscous", "fire"],
                    choices=["kinetic", "viscous", "fire"], help="with --strip: dr.damping values")
-    p.add_argument("--prestretch", nargs="+", type=float, default=[1.1, 1.3, 1.5], help="with --strip: levels")
+    p.add_argument("--prestretch", nargs="+", type=float, default=None,
+                   help="with --strip: levels (default 1.1 1.3 1.5); with --fem: the one state (default 1.3)")
     p.add_argument("--refinement", type=int, default=1, help="with --strip: fem.refinement (the triangles' mesh)")
     p.add_argument("--no-fem", action="store_true", help="with --strip: skip the FEM timing")
-    p.add_argument("--json", action="store_true", help="with --strip: rows as JSON")
+    p.add_argument("--fem", action="store_true",
+                   help="the FEM reference: one state per element and level from flat (DOFs, Newton its, factorisations, time)")
+    p.add_argument("--levels", nargs="+", type=int, default=[0, 1, 2], help="with --fem: refinement levels")
+    p.add_argument("--json", action="store_true", help="with --strip or --fem: rows as JSON")
     p.set_defaults(func=cmd_bench)
     return parser
 

@@ -55,7 +55,7 @@ def bending_angle(a: Analysis, path: Path) -> Path:
     for k in a.plan.reference_levels:
         pts = sorted((lam, r.bending_angle) for lam, r in a.states[f"fem_r{k}"].items() if r.converged)
         if pts:
-            ax.plot(*zip(*pts), ":", color="0.5", lw=1, label=f"FEM refinement {k}" if k == a.plan.reference_levels[-1] else None)
+            ax.plot(*zip(*pts), ":", color="0.5", lw=1, label=f"FEM refinement levels {a.plan.reference_levels[0]}-{k}" if k == a.plan.reference_levels[-1] else None)
     refs = sorted(a.references.items())
     if refs:
         lam = [l for l, _ in refs]

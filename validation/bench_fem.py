@@ -1,0 +1,57 @@
+"""``demes bench --fem``: what one FEM reference state costs at each refinement level.
+
+For each element (P1, P2) and level k, one state of the paper DEMES (strip frame) from the flat
+state, as the reference solves it: the path followed on level 0, each finer level started from
+the one below. Per level: free DOFs, Newton iterations and sparse Cholesky factorisations on
+that level's mesh, the median wall time of the whole state, and the level's own share (the
+state's time less the state one level down, whose work it repeats exactly) per Newton
+iteration.
+"""
+
+from __future__ import annotations
+
+import os
+
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+
+import fem_reference  # noqa: E402
+import scenes  # noqa: E402
+
+from .bench import timed  # noqa: E402
+
+ELEMENTS = ("P1", "P2")
+
+
+def rows(*, levels: tuple[int, ...] = (0, 1, 2), elements: tuple[str, ...] = ELEMENTS,
+         prestretch: float = 1.3, repeats: int = 1) -> list[dict]:
+    """One row per element and level (levels ascending from 0, so that each level's own share
+    is its time less the previous row's)."""
+    out = []
+    for element in elements:
+        scene = scenes.paper_demes(prestretch, **{"fem.element": element})
+        below = 0.0
+        for k in sorted(levels):
+            res, t = timed(lambda: fem_reference.solve(scene, refinement=k), repeats, warm_up=k == 0)
+            own = t - below if k == sorted(levels)[0] or k - 1 in levels else float("nan")
+            out.append({
+                "element": element, "level": k, "free_dofs": res.info["n_free_dofs"], "status": res.status,
+                "newton": res.iterations, "factorisations": res.info["factorisations"], "time": t,
+                "time_level": own, "per_newton": own / max(res.iterations, 1),
+                "bending_angle": res.bending_angle,
+            })
+            below = t
+    return out
+
+
+COLUMNS = (
+    ("element", "element", ""),
+    ("level", "level", "d"),
+    ("free_dofs", "free DOFs", "d"),
+    ("status", "status", ""),
+    ("newton", "Newton its (level)", "d"),
+    ("factorisations", "factorisations (level)", "d"),
+    ("time", "median time, state [s]", ".2f"),
+    ("time_level", "level's own [s]", ".2f"),
+    ("per_newton", "per Newton it [s]", ".3f"),
+    ("bending_angle", "theta [deg]", ".4f"),
+)
