@@ -130,3 +130,48 @@ def test_bending_angle_ignores_the_flat_base_stepping_back():
                  iterations=0, residual=0.0, wall_time=0.0, energy={}, frame_nodes=np.arange(len(s)),
                  frame_s=s, scene=scene)
     assert res.bending_angle == pytest.approx(closed_form, abs=0.05)
+
+
+def profiled_frame(scene, knots: np.ndarray, turn: float, radius: float = 5.0):
+    """Frame points of ``scene``'s outline whose symmetric midline follows the polyline ``knots``
+    (rows: reference height Y, y, z; mm) and then curls by ``turn`` rad on a circle of ``radius``
+    and runs straight. Returns (points, arc lengths, the apex angle atan2(dz, dy) from the
+    closed form, deg)."""
+    o = scene.outline
+    s = np.linspace(0.0, o.length, 2000, endpoint=False)
+    xy = o.evaluate(s)[0]
+    Y0, y0, z0 = knots[-1]
+    d0 = np.arctan2(*(knots[-1, 2:0:-1] - knots[-2, 2:0:-1]))  # direction at the curl's start
+
+    def midline(Y):
+        u = np.clip(Y - Y0, 0.0, None)
+        bent = np.minimum(u, turn * radius)
+        psi = d0 + bent / radius
+        y = y0 + radius * (np.sin(psi) - np.sin(d0)) + (u - bent) * np.cos(d0 + turn)
+        z = z0 - radius * (np.cos(psi) - np.cos(d0)) + (u - bent) * np.sin(d0 + turn)
+        return (np.where(Y < Y0, np.interp(Y, knots[:, 0], knots[:, 1]), y),
+                np.where(Y < Y0, np.interp(Y, knots[:, 0], knots[:, 2]), z))
+
+    y, z = midline(xy[:, 1])
+    ya, za = midline(np.array(o.height()))
+    return np.column_stack([xy[:, 0], y, z]), s, float(np.degrees(np.arctan2(za, ya)))
+
+
+@pytest.mark.parametrize("curl", [60.0, 120.0])
+def test_bending_angle_counts_a_reversal_of_the_midline_as_no_turn(curl):
+    """Off the plane, the base's midline steps forward, back (175 deg) and forward again (-10
+    deg): two near half turns that carry no curl. Unwrapping read the second as +175 (a whole
+    turn too many: a 4-division FEM state at 1.1 read 410.3 deg for 50.3)."""
+    from results import Result
+
+    scene = scenes.load("demes_paper")
+    back, fore = np.radians(175.0), np.radians(-10.0)
+    knots = np.array([[0.0, 0.0, 0.0], [1.0, 1.0, 0.0], [2.0, 2.0, 1.0], [2.5, 2.5, 1.0]])
+    knots = np.vstack([knots, knots[-1] + [0.5, 0.5 * np.cos(back), 0.5 * np.sin(back)]])
+    knots = np.vstack([knots, knots[-1] + [1.0, 1.0 * np.cos(fore), 1.0 * np.sin(fore)]])
+    pts, s, closed_form = profiled_frame(scene, knots, np.radians(curl))
+    res = Result(solver="test", x=pts, x0=pts, converged=True, status="converged", message="",
+                 iterations=0, residual=0.0, wall_time=0.0, energy={}, frame_nodes=np.arange(len(s)),
+                 frame_s=s, scene=scene)
+    assert 0.0 < closed_form < 180.0
+    assert res.bending_angle == pytest.approx(closed_form, abs=0.05)
