@@ -103,7 +103,7 @@ def build_plan(quick: bool = False) -> Plan:
         levels = (0, 1)
         element = "P1"  # the quick plan checks the harness, not the reference's accuracy
         speed_lam = 1.3
-        dr_meshes, dr_tols = (6, 8, 12), (1e-4, 1e-6)
+        dr_meshes, dr_tols = (4, 6, 8), (1e-4, 1e-6)
         hard_lams = (1.0, 1.3)
         second_lams = (1.15, 1.3)
     else:
