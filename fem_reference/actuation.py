@@ -7,7 +7,8 @@ if it is stable: the tangent is positive definite (its Cholesky factor exists), 
 (a slack film). A step that fails is halved; when the step in V falls below ``MIN_STEP_V`` the
 branch has ended at a limit point: a long Newton solve looks for a stable state to snap to (it
 is reported), and if there is none the path stops with status ``pull_in`` and the voltage
-interval that brackets the electromechanical instability. The sweep also stops once the frame is
+interval that brackets the electromechanical instability. A branch that ends at a flat frame is
+not searched: past it the film has no tension left and no stable state. The sweep also stops once the frame is
 flat (bending angle below ``FLAT_DEG``): past that the film would be in compression.
 """
 
@@ -20,6 +21,7 @@ from typing import Callable, Iterator, Sequence
 import numpy as np
 
 from results import Result
+from results.metrics import bending_angle
 from scenes import Scene
 from scenes.electric import (FLAT_DEG, check_voltages, dielectric_coefficient, mounted_thickness,
                              path_end)
@@ -59,14 +61,19 @@ class VoltagePath:
         Eigenvalues (N/mm^3) above minus this count as neutral, not unstable.
     snap_iterations
         Newton iterations spent looking for a state to snap to where the branch ends.
+    flat
+        Whether a state (3 nn,) is one past which no stable state exists (a flat frame: the film
+        has no tension left); a branch that ends at such a state is not searched for a snap.
     """
 
     def __init__(self, problem, y: np.ndarray, coefficient: Callable[[float], float],
-                 neutral: float, snap_iterations: int = SNAP_ITERATIONS):
+                 neutral: float, snap_iterations: int = SNAP_ITERATIONS,
+                 flat: Callable[[np.ndarray], bool] | None = None):
         self.problem = problem
         self.coefficient = coefficient
         self.neutral = neutral
         self.snap_iterations = snap_iterations
+        self.flat = flat
         self.lam = getattr(problem, "lam", 1.0)  # the pre-stretch, for the step records
         self.voltage = 0.0
         self.y = y
@@ -111,6 +118,9 @@ class VoltagePath:
             if step > MIN_STEP_V:
                 step *= 0.5
                 continue
+            if self.flat is not None and self.flat(self.y):
+                self._set(self.voltage)
+                return records, VoltageStop("flat", f"flat at V = {self.voltage:.1f} V")
             # the branch ends here: is there a stable state to snap to?
             snap = newton(self.problem, self.y, tol=TOLERANCE, max_iterations=self.snap_iterations)
             records.append(StepRecord(self.lam, snap.iterations, snap.history, 0))
@@ -172,8 +182,14 @@ def voltage_sweep(scene: Scene, voltages: Sequence[float], refinement: int | Non
     pre = Continuation(problem).advance(scene.prestretch)
     gaps = np.diff([0.0] + volts)
     dv = step if step is not None else min(100.0, float(gaps[gaps > 0].min()) if np.any(gaps > 0) else 100.0)
+    o, mesh = scene.outline, problem.mesh
+
+    def flat(y: np.ndarray) -> bool:  # as path_end reads the state (a 600-iteration snap search saved)
+        x = y.reshape(-1, 3)[mesh.frame_nodes]
+        return abs(bending_angle(x, mesh.frame_s, o.length, o.apex_arc_length(), o.side_length)) < FLAT_DEG
+
     path = VoltagePath(problem, pre.y, lambda v: dielectric_coefficient(scene, v),
-                       _neutral_tolerance(scene))
+                       _neutral_tolerance(scene), flat=flat)
     stop = None if pre.converged else VoltageStop(pre.status, "the pre-stretched state: " + pre.detail)
     records = list(pre.records)
     steps = 0
