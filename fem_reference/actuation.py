@@ -21,7 +21,7 @@ from typing import Callable, Iterator, Sequence
 import numpy as np
 
 from results import Result
-from results.metrics import bending_angle
+from results.metrics import outline_bending_angle
 from scenes import Scene
 from scenes.electric import (FLAT_DEG, check_voltages, dielectric_coefficient, mounted_thickness,
                              path_end)
@@ -182,11 +182,10 @@ def voltage_sweep(scene: Scene, voltages: Sequence[float], refinement: int | Non
     pre = Continuation(problem).advance(scene.prestretch)
     gaps = np.diff([0.0] + volts)
     dv = step if step is not None else min(100.0, float(gaps[gaps > 0].min()) if np.any(gaps > 0) else 100.0)
-    o, mesh = scene.outline, problem.mesh
+    mesh = problem.mesh
 
     def flat(y: np.ndarray) -> bool:  # as path_end reads the state (a 600-iteration snap search saved)
-        x = y.reshape(-1, 3)[mesh.frame_nodes]
-        return abs(bending_angle(x, mesh.frame_s, o.length, o.apex_arc_length(), o.side_length)) < FLAT_DEG
+        return abs(outline_bending_angle(y.reshape(-1, 3)[mesh.frame_nodes], mesh.frame_s, scene.outline)) < FLAT_DEG
 
     path = VoltagePath(problem, pre.y, lambda v: dielectric_coefficient(scene, v),
                        _neutral_tolerance(scene), flat=flat)

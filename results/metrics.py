@@ -73,6 +73,12 @@ def bending_angle(x: np.ndarray, s: np.ndarray, length: float, s_apex: float, si
     return nearest_turn(theta, float(np.average(psi, weights=w[keep])))
 
 
+def outline_bending_angle(x: np.ndarray, s: np.ndarray, outline) -> float:
+    """:func:`bending_angle` of frame nodes x (k, 3) mm at reference arc lengths s on ``outline``
+    (a ``scenes`` outline: its length, apex and side length)."""
+    return bending_angle(x, s, outline.length, outline.apex_arc_length(), outline.side_length)
+
+
 def nearest_turn(angle: float, previous: float) -> float:
     """``angle`` (deg) plus the whole turns that bring it nearest ``previous``: a sweep's next
     state is read as the continuation of the one before.

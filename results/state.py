@@ -135,9 +135,8 @@ class Result:
         continuous from the flat state (:func:`results.metrics.bending_angle`); in a sweep, the
         turn nearest the previous state's angle (``info['previous_bending_angle']``)."""
         self._need_scene()
-        x, s, length = self._frame()
-        o = self.scene.outline
-        theta = metrics.bending_angle(x, s, length, o.apex_arc_length(), o.side_length)
+        x, s, _ = self._frame()
+        theta = metrics.outline_bending_angle(x, s, self.scene.outline)
         previous = self.info.get("previous_bending_angle")
         return theta if previous is None else metrics.nearest_turn(theta, previous)
 

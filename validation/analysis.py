@@ -261,7 +261,8 @@ def _budget(a: Analysis) -> None:
     for kind, what, x, y in pairs:
         add(kind, what, *_difference(a.states[x].get(lam), a.states[y].get(lam)))
     level, fem_finest = a.finest_fem.get(lam, (None, None))
-    add("model form", f"the paper's DR model vs the FEM reference (finest level, r{level})",
+    finest = f"finest level, r{level}" if level is not None else "finest level"
+    add("model form", f"the paper's DR model vs the FEM reference ({finest})",
         *_difference(a.states["dr_paper"].get(lam), fem_finest))
     tight = min((r.changes["dr.tolerance"] for r in drconv), default=None)
     if tight is not None:

@@ -24,22 +24,23 @@ ELEMENTS = ("P1", "P2")
 
 def rows(*, levels: tuple[int, ...] = (0, 1, 2), elements: tuple[str, ...] = ELEMENTS,
          prestretch: float = 1.3, repeats: int = 1) -> list[dict]:
-    """One row per element and level (levels ascending from 0, so that each level's own share
-    is its time less the previous row's)."""
-    out = []
+    """One row per element and level, levels ascending; a level's own share is its time less the
+    level below's (NaN where that level was not timed)."""
+    out: list[dict] = []
     for element in elements:
         scene = scenes.paper_demes(prestretch, **{"fem.element": element})
-        below = 0.0
+        times = {-1: 0.0}  # level -> median time of its state; level 0 repeats nothing below it
         for k in sorted(levels):
-            res, t = timed(lambda: fem_reference.solve(scene, refinement=k), repeats, warm_up=k == 0)
-            own = t - below if k == sorted(levels)[0] or k - 1 in levels else float("nan")
+            # one warm-up compiles for the whole process
+            res, t = timed(lambda: fem_reference.solve(scene, refinement=k), repeats, warm_up=not out)
+            times[k] = t
+            own = t - times.get(k - 1, float("nan"))  # unknown when the level below was not timed
             out.append({
                 "element": element, "level": k, "free_dofs": res.info["n_free_dofs"], "status": res.status,
                 "newton": res.iterations, "factorisations": res.info["factorisations"], "time": t,
                 "time_level": own, "per_newton": own / max(res.iterations, 1),
                 "bending_angle": res.bending_angle,
             })
-            below = t
     return out
 
 
