@@ -27,10 +27,6 @@ def frame_at(x: np.ndarray, s: np.ndarray, length: float, s_query: np.ndarray) -
     return spline(q)
 
 
-REVERSAL_DEG = 170.0
-"""A turn between two of the midline's 256 steps larger than this is the midline stepping back."""
-
-
 def bending_angle(x: np.ndarray, s: np.ndarray, length: float, s_apex: float, size: float,
                   samples: int = 256) -> float:
     """Angle (deg) of the line base midpoint -> apex above the flat plane, in the symmetry plane,
@@ -48,7 +44,7 @@ def bending_angle(x: np.ndarray, s: np.ndarray, length: float, s_apex: float, si
     are the steps before the midline first leaves the flat plane (by 1e-2 of ``size``): there
     the taped base's chords can make it step back near the corners, a reversal that unwrapping
     reads as a half turn (it read 390 deg for a 30 deg curl at 6 divisions, and 410 for 50 at 4,
-    where the coarse base dipped 0.3 mm); a reversal left after that counts as no turn.
+    where the coarse base dipped 0.3 mm and rose 0.06 mm while stepping back).
     """
     t = np.linspace(0.0, s_apex, samples)
     mid = 0.5 * (frame_at(x, s, length, t) + frame_at(x, s, length, -t))
@@ -62,14 +58,7 @@ def bending_angle(x: np.ndarray, s: np.ndarray, length: float, s_apex: float, si
     keep &= np.cumsum(np.abs(mid[1:, 2]) > 1e-2 * size) > 0
     if not keep.any():
         return theta
-    direction = np.arctan2(step[keep, 1], step[keep, 0])
-    # turn between steps, wrapped to (-pi, pi]; a reversal (the midline stepping back along
-    # itself, as a coarse base lifted off the plane does) is no turn: np.unwrap would read its
-    # exact half turn as +pi or -pi by round-off (a 50 deg curl read 410 at 4 divisions)
-    turn = np.angle(np.exp(1j * np.diff(direction)))
-    turn[np.abs(turn) > np.radians(REVERSAL_DEG)] = 0.0
-    start = direction[0] - np.pi * np.round(direction[0] / np.pi)  # the flat base heads +y
-    psi = np.degrees(start + np.concatenate([[0.0], np.cumsum(turn)]))
+    psi = np.degrees(np.unwrap(np.arctan2(step[keep, 1], step[keep, 0])))
     return nearest_turn(theta, float(np.average(psi, weights=w[keep])))
 
 

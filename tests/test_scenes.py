@@ -158,17 +158,19 @@ def profiled_frame(scene, knots: np.ndarray, turn: float, radius: float = 5.0):
 
 
 @pytest.mark.parametrize("curl", [60.0, 120.0])
-def test_bending_angle_counts_a_reversal_of_the_midline_as_no_turn(curl):
-    """Off the plane, the base's midline steps forward, back (175 deg) and forward again (-10
-    deg): two near half turns that carry no curl. Unwrapping read the second as +175 (a whole
-    turn too many: a 4-division FEM state at 1.1 read 410.3 deg for 50.3)."""
+def test_bending_angle_skips_a_lifted_base_stepping_back(curl):
+    """A coarse taped base lifted 0.3 mm off the plane (a 4-division FEM state at 1.1 dips
+    0.3 mm) whose midline steps forward, back (175 deg) and forward again (-10 deg): unwrapped,
+    the second near half turn reads +175 and the angle a whole turn too many (50.3 deg read
+    410.3). The turn is read from where the midline leaves the plane by 1e-2 of the side."""
     from results import Result
 
     scene = scenes.load("demes_paper")
     back, fore = np.radians(175.0), np.radians(-10.0)
-    knots = np.array([[0.0, 0.0, 0.0], [1.0, 1.0, 0.0], [2.0, 2.0, 1.0], [2.5, 2.5, 1.0]])
+    knots = np.array([[0.0, 0.0, 0.0], [1.0, 1.0, 0.0], [2.0, 2.0, 0.3], [2.5, 2.5, 0.3]])
     knots = np.vstack([knots, knots[-1] + [0.5, 0.5 * np.cos(back), 0.5 * np.sin(back)]])
     knots = np.vstack([knots, knots[-1] + [1.0, 1.0 * np.cos(fore), 1.0 * np.sin(fore)]])
+    assert np.abs(knots[:, 2]).max() < 1e-2 * scene.outline.side_length
     pts, s, closed_form = profiled_frame(scene, knots, np.radians(curl))
     res = Result(solver="test", x=pts, x0=pts, converged=True, status="converged", message="",
                  iterations=0, residual=0.0, wall_time=0.0, energy={}, frame_nodes=np.arange(len(s)),
