@@ -9,8 +9,10 @@ import pytest
 import dr
 import fem_reference
 import scenes
+from results import load_result
 from validation.cli import main
 from validation.plan import MATCHED, REFERENCE, build_plan
+from validation.runner import computation_key
 from validation.validate import validate
 
 
@@ -111,27 +113,53 @@ def test_interrupted_validation_redoes_only_what_is_missing(report):
     out, _, _ = report
     runs = out / "runs"
     stamps = {p.parent.name: p.stat().st_mtime_ns for p in runs.glob("*/run.json")}
-    # simulate an interruption inside one DR sweep: its record and its last state are gone
-    victim = runs / "dr_matched"
+    # simulate an interruption inside one DR sweep (one with no twin in the plan): its record
+    # and its last state are gone; and a twin (drconv_n8 computes dr_matched) lost its record
+    victim, twin = runs / "dr_paper", runs / "drconv_n8"
     (victim / "run.json").unlink()
+    (twin / "run.json").unlink()
     last = sorted(victim.glob("*.npz"))[-1]
-    kept = sorted(victim.glob("*.npz"))[:-1]
-    kept_stamps = {p.name: p.stat().st_mtime_ns for p in kept}
+    kept = sorted(victim.glob("*.npz"))[:-1] + sorted(twin.glob("*.npz"))
+    kept_stamps = {p: p.stat().st_mtime_ns for p in kept}
     last.unlink()
-    # --report-only solves nothing and names the unfinished run
+    # --report-only solves nothing and names the unfinished runs
     assert main(["validate", "--quick", "--out", str(out), "--report-only", "--no-progress"]) == 0
     assert not last.exists()
     findings = (out / "report.md").read_text().split("## ")[1]
-    assert "Runs not finished" in findings and "dr_matched" in findings
+    assert "Runs not finished" in findings and "dr_paper" in findings and "drconv_n8" in findings
     validate(scenes.load("demes_paper"), out, quick=True, workers=1, progress=False)
     for name, stamp in stamps.items():
-        if name != "dr_matched":
+        if name not in ("dr_paper", "drconv_n8"):
             assert (runs / name / "run.json").stat().st_mtime_ns == stamp, name
     assert json.loads((victim / "run.json").read_text())["complete"]
+    assert json.loads((twin / "run.json").read_text())["same_as"] == "dr_matched"
     assert last.exists()
-    for name, stamp in kept_stamps.items():  # finished states were not solved again
-        assert (victim / name).stat().st_mtime_ns == stamp
+    for path, stamp in kept_stamps.items():  # finished states were not solved again
+        assert path.stat().st_mtime_ns == stamp, path
     assert np.isfinite(float(read_csv(out / "headline.csv")[-1]["theta_matched [deg]"]))
+
+
+def test_runs_that_compute_the_same_are_solved_once(report):
+    """The quick plan's twins (one computation under two labels) hold the same states, one
+    record names the other, and a one-level DR sweep is the cold solve the key takes it for."""
+    out, _, _ = report
+    plan = build_plan(quick=True)
+    same = {}
+    for run in plan.runs:
+        same.setdefault(computation_key(run, scenes.load("demes_paper").to_dict()), []).append(run)
+    twins = [runs for runs in same.values() if len(runs) > 1]
+    assert {frozenset(r.label for r in runs) for runs in twins} >= {
+        frozenset({"dr_matched", "drconv_n8"}), frozenset({"dr_links_strip", "netconv_links_n8"})}
+    for runs in twins:
+        dirs = [out / "runs" / r.label for r in runs]
+        records = [json.loads((d / "run.json").read_text()) for d in dirs]
+        assert sum("same_as" in rec for rec in records) == len(runs) - 1
+        for a, b in zip(sorted(dirs[0].glob("*.npz")), sorted(dirs[1].glob("*.npz")), strict=True):
+            assert a.name == b.name and a.read_bytes() == b.read_bytes()
+    sweep_run = next(r for r in plan.runs if r.label == "netconv_links_n8")
+    cold = dr.solve(scenes.load("demes_paper").updated(**sweep_run.changes), sweep_run.prestretches[0])
+    stored = load_result(out / "runs" / "netconv_links_n8" / f"{sweep_run.prestretches[0]:.4f}.npz")
+    assert cold.iterations == stored.iterations and np.array_equal(cold.x, stored.x)
 
 
 def test_report_only_needs_runs(tmp_path, capsys):

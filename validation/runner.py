@@ -5,6 +5,11 @@ Every finished state is written at once (``runs/<label>/<lambda>.npz`` and a ``.
 run's record (``run.json``) when the run is done; an interrupted validation picks up from
 there: complete runs are not repeated, a DR sweep continues from its last finished state, and
 a FEM run (one continuation path) is redone.
+
+Runs of the plan that compute the same thing under two labels (the same solver, scene, levels
+and start; e.g. the speed study's tightest 40-division DR state is DR's own refinement at 40
+divisions) are solved once: the other label gets a copy of the states and files, and its
+record names the run it was copied from (``same_as``).
 """
 
 from __future__ import annotations
@@ -12,12 +17,14 @@ from __future__ import annotations
 import json
 import os
 import resource
+import shutil
 import time
 import traceback
 from dataclasses import asdict
 from pathlib import Path
 from typing import Any, Callable
 
+import scenes
 from results import Result, atomic_write_text, level_label, load_result, save_result, write_pvd
 
 from . import experiment
@@ -104,10 +111,10 @@ def _polished(found: Result) -> Result:
     return res
 
 
-def execute(run: Run, scene_data: dict[str, Any], out_dir: str) -> dict[str, Any]:
-    """Solve one run (in a worker process) and write its states and record."""
-    import scenes
-
+def execute(run: Run, scene_data: dict[str, Any], out_dir: str,
+            copies: dict[str, tuple[Run, ...]] | None = None) -> dict[str, Any]:
+    """Solve one run (in a worker process) and write its states and record; the runs in
+    ``copies[run.label]`` (the same computation, see :func:`computation_key`) get a copy."""
     os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
     run_dir = Path(out_dir) / "runs" / run.label
     run_dir.mkdir(parents=True, exist_ok=True)
@@ -149,7 +156,50 @@ def execute(run: Run, scene_data: dict[str, Any], out_dir: str) -> dict[str, Any
         write_pvd(run_dir / f"{run.label}.pvd", [(lam, p) for lam, p in vtus if p.exists()])
     record["complete"] = record["error"] is None
     atomic_write_text(run_dir / "run.json", json.dumps(record, indent=1))
+    for twin in (copies or {}).get(run.label, ()):
+        copy_run(run, twin, Path(out_dir))
     return record
+
+
+def computation_key(run: Run, scene_data: dict[str, Any]) -> str:
+    """What ``run`` computes: solver, scene with the run's changes, levels, start and options.
+    Two runs with one key give the same states bit for bit; a one-level DR sweep starts from
+    the flat state, as a cold solve does, so the two count as one."""
+    key = _as_recorded(run)
+    for name in ("label", "title", "group", "changes"):
+        del key[name]
+    try:
+        key["scene"] = scenes.Scene.from_dict(scene_data).updated(**run.changes).to_dict()
+    except scenes.DemesError:  # a refused scene: the run itself says why
+        return json.dumps({"label": run.label})
+    if run.solver == "dr" and len(run.prestretches) == 1 and not run.voltages:
+        key["cold"] = True
+    return json.dumps(key, sort_keys=True, default=str)
+
+
+def copy_run(source: Run, target: Run, out_dir: Path) -> None:
+    """Give ``target`` the files of ``source``, a run of the same computation: files named
+    after the run are renamed, states already there are kept (they are the same), and the
+    record, written last, names the run it comes from (``same_as``)."""
+    src, dst = out_dir / "runs" / source.label, out_dir / "runs" / target.label
+    dst.mkdir(parents=True, exist_ok=True)
+    previous = run_record(dst)
+    if previous is not None and previous["run"] != _as_recorded(target):
+        for stale in dst.iterdir():
+            stale.unlink()
+    for path in sorted(src.iterdir()):
+        if path.name == "run.json" or not path.is_file():
+            continue
+        name = target.label + path.name[len(source.label):] if path.name.startswith(source.label) else path.name
+        if path.suffix == ".pvd":  # it lists its .vtu files by name
+            atomic_write_text(dst / name, path.read_text().replace(f'file="{source.label}_', f'file="{target.label}_'))
+        elif not (dst / name).exists():
+            part = dst / f".{name}.part"  # atomic: an interrupted copy leaves no half state
+            shutil.copyfile(path, part)
+            os.replace(part, dst / name)
+    record = run_record(src) or {}
+    record.update(run=_as_recorded(target), same_as=source.label)
+    atomic_write_text(dst / "run.json", json.dumps(record, indent=1))
 
 
 def is_complete(run: Run, out_dir: Path) -> bool:
@@ -176,16 +226,20 @@ def run_plan(plan: Plan, scene_data: dict[str, Any], out_dir: Path, workers: int
     ``workers`` processes (``workers <= 1``: this process), see :mod:`validation.executor`.
     """
     out_dir.mkdir(parents=True, exist_ok=True)
-    todo = [r for r in plan.runs if not is_complete(r, out_dir)]
+    todo, copies = _computations(plan, scene_data, out_dir)
     # the slowest first, so that the workers finish together: the runs that take minutes (the
     # reference levels, the main sweeps, DR's own refinement, the voltage runs, DR on 40 or more
     # divisions), then the rest (measured: a 56-division hard case left last ran 4 min alone)
     long_groups = ("reference", "sweep", "drconv", "experiment")
     todo.sort(key=lambda r: (r.group not in long_groups and r.changes.get("mesh.divisions", 0) < 40,
                              r.solver != "fem", -r.refinement, -len(r.prestretches) - len(r.voltages)))
+    def weight(run: Run) -> int:
+        return 1 + len(copies[run.label])
+
     with connect(scheduler, workers if todo else 1) as client:
-        for outcome in run_tasks(execute, todo, client=client, args=(scene_data, str(out_dir)),
-                                 total=len(plan.runs), done=len(plan.runs) - len(todo),
+        for outcome in run_tasks(execute, todo, client=client, args=(scene_data, str(out_dir), copies),
+                                 weight=weight, total=len(plan.runs),
+                                 done=len(plan.runs) - sum(weight(r) for r in todo),
                                  desc="validate", unit="run", progress=progress):
             if outcome.error is not None:
                 # the worker died: the run's record on disk says how far it got
@@ -193,3 +247,26 @@ def run_plan(plan: Plan, scene_data: dict[str, Any], out_dir: Path, workers: int
             if on_done:
                 on_done(outcome.value)
     return {r.label: run_record(out_dir / "runs" / r.label) or {} for r in plan.runs}
+
+
+def _computations(plan: Plan, scene_data: dict[str, Any], out_dir: Path
+                  ) -> tuple[list[Run], dict[str, tuple[Run, ...]]]:
+    """The runs to solve, one per computation that some run still needs, and for each the runs
+    that get a copy of it; a run whose computation is complete under another label gets its
+    copy here, without solving."""
+    same: dict[str, list[Run]] = {}
+    for run in plan.runs:
+        same.setdefault(computation_key(run, scene_data), []).append(run)
+    todo, copies = [], {}
+    for runs in same.values():
+        missing = [r for r in runs if not is_complete(r, out_dir)]
+        done = [r for r in runs if r not in missing]
+        if done:
+            for run in missing:
+                copy_run(done[0], run, out_dir)
+        elif missing:
+            # the one with most states on disk resumes; the others wait for its copy
+            first = max(missing, key=lambda r: len(list((out_dir / "runs" / r.label).glob("*.npz"))))
+            todo.append(first)
+            copies[first.label] = tuple(r for r in missing if r is not first)
+    return todo, copies
