@@ -119,11 +119,7 @@ def execute(run: Run, scene_data: dict[str, Any], out_dir: str,
     run_dir = Path(out_dir) / "runs" / run.label
     run_dir.mkdir(parents=True, exist_ok=True)
     record: dict[str, Any] = {"run": _as_recorded(run), "states": [], "error": None, "complete": False}
-    previous = run_record(run_dir)
-    if previous is not None and previous["run"] != _as_recorded(run):
-        # the plan changed: the states on disk belong to another run
-        for stale in [*run_dir.glob("*.npz"), *run_dir.glob("*.vtu"), *run_dir.glob("*.pvd")]:
-            stale.unlink()
+    _clear_another_run(run_dir, run)
     atomic_write_text(run_dir / "run.json", json.dumps(record, indent=1))
     measured = _reset_peak_memory()
     t0 = time.perf_counter()
@@ -179,27 +175,33 @@ def computation_key(run: Run, scene_data: dict[str, Any]) -> str:
 
 def copy_run(source: Run, target: Run, out_dir: Path) -> None:
     """Give ``target`` the files of ``source``, a run of the same computation: files named
-    after the run are renamed, states already there are kept (they are the same), and the
-    record, written last, names the run it comes from (``same_as``)."""
+    after the run are renamed, states already there are kept (they are the same), other files
+    are replaced, and the record, written last, names the run it comes from (``same_as``)."""
     src, dst = out_dir / "runs" / source.label, out_dir / "runs" / target.label
     dst.mkdir(parents=True, exist_ok=True)
-    previous = run_record(dst)
-    if previous is not None and previous["run"] != _as_recorded(target):
-        for stale in dst.iterdir():
-            stale.unlink()
+    _clear_another_run(dst, target)
     for path in sorted(src.iterdir()):
         if path.name == "run.json" or not path.is_file():
             continue
         name = target.label + path.name[len(source.label):] if path.name.startswith(source.label) else path.name
         if path.suffix == ".pvd":  # it lists its .vtu files by name
             atomic_write_text(dst / name, path.read_text().replace(f'file="{source.label}_', f'file="{target.label}_'))
-        elif not (dst / name).exists():
+        elif path.suffix != ".npz" or not (dst / name).exists():
             part = dst / f".{name}.part"  # atomic: an interrupted copy leaves no half state
             shutil.copyfile(path, part)
             os.replace(part, dst / name)
     record = run_record(src) or {}
     record.update(run=_as_recorded(target), same_as=source.label)
     atomic_write_text(dst / "run.json", json.dumps(record, indent=1))
+
+
+def _clear_another_run(run_dir: Path, run: Run) -> None:
+    """Delete the states and VTK files in ``run_dir`` if its record is of another run (the plan
+    changed): they are not ``run``'s."""
+    previous = run_record(run_dir)
+    if previous is not None and previous["run"] != _as_recorded(run):
+        for stale in [*run_dir.glob("*.npz"), *run_dir.glob("*.vtu"), *run_dir.glob("*.pvd")]:
+            stale.unlink()
 
 
 def is_complete(run: Run, out_dir: Path) -> bool:
