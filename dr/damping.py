@@ -1,11 +1,11 @@
 """Damping schemes of the DR time loop, one compiled unit each, all with the same signature.
 
 Each takes the loop's :class:`dr.integrator.State` at x(t) (positions, v(t - dt/2), the
-residual R(t) and the masses there) and the number n of real nodes (not the element record,
+residual R(t), the masses there and the accelerations A = M^-1 R(t) they give) and the number n of real nodes (not the element record,
 whose reference counting would cost more than a small model's step, see
 :func:`dr.integrator.run`), and sets V to v(t + dt/2); dt = 1, masses scaled to it. It
 returns GOING (no reset), RESTART (the motion stops: the loop restarts it from rest at x,
-v = dt/2 M^-1 R) or MOVED_BACK (the same after moving the nodes: R and the masses are
+v = dt/2 A) or MOVED_BACK (the same after moving the nodes: R and the masses are
 recomputed first).
 
 - ``kinetic`` (Barnes): undamped motion, stopped at every kinetic-energy peak, where the
@@ -50,39 +50,38 @@ def mul(A, i, v0, v1, v2):
 
 
 @njit(cache=True, error_model="numpy")
-def accelerate(V, R, Minv, free, n, factor, gain):
-    """V = factor V + gain M^-1 R at free DOFs."""
+def accelerate(V, A, n, factor, gain):
+    """V = factor V + gain A (A = M^-1 R, zero at fixed DOFs)."""
     for i in range(n):
-        a = mul(Minv, i, R[i, 0], R[i, 1], R[i, 2])
         for c in range(3):
-            V[i, c] = (factor * V[i, c] + gain * a[c]) * free[i, c]
+            V[i, c] = factor * V[i, c] + gain * A[i, c]
 
 
 @njit(cache=True, error_model="numpy")
 def kinetic(st, n):
     """Barnes' kinetic damping. The peak is detected from the change of kinetic energy over
     the step measured with this step's masses, dKE = (v(t-dt/2) + dt/2 M^-1 R(t)) . R(t) dt,
-    which stays meaningful when the masses change. At a peak the nodes go back to
-    x* = x(t+dt) - 1.5 dt v(t+dt/2) + dt^2/2 M^-1 R(t) (and restart from rest there)."""
-    X, V, R, Minv, free = st.X, st.V, st.R, st.Minv, st.free
+    which stays meaningful when the masses change (and holds for any SPD mass matrix). At a
+    peak the nodes go back to x* = x(t+dt) - 1.5 dt v(t+dt/2) + dt^2/2 M^-1 R(t) (and restart
+    from rest there)."""
+    X, V, R, A = st.X, st.V, st.R, st.A
     dke = 0.0
     for i in range(n):
-        a = mul(Minv, i, R[i, 0], R[i, 1], R[i, 2])
         for c in range(3):
-            dke += (V[i, c] + 0.5 * a[c]) * R[i, c]
-    accelerate(V, R, Minv, free, n, 1.0, 1.0)
+            dke += (V[i, c] + 0.5 * A[i, c]) * R[i, c]
+    accelerate(V, A, n, 1.0, 1.0)
     if dke >= 0.0:
         return GOING
     for i in range(n):
-        a = mul(Minv, i, R[i, 0], R[i, 1], R[i, 2])
         for c in range(3):
-            X[i, c] += -0.5 * V[i, c] + 0.5 * a[c] * free[i, c]
+            X[i, c] += -0.5 * V[i, c] + 0.5 * A[i, c]
     return MOVED_BACK
 
 
 @njit(cache=True, error_model="numpy")
 def viscous(st, n):
-    """Underwood's adaptive viscous damping (module docstring)."""
+    """Underwood's adaptive viscous damping (module docstring); the mass of a DOF is the
+    diagonal of its mass matrix (at the frame mass's nodes, the diagonal of M_F)."""
     X, V, R, M, free, R_prev, X0 = st.X, st.V, st.R, st.M, st.free, st.R_prev, st.X0
     xkx, xmx = 0.0, 0.0
     for i in range(n):
@@ -97,29 +96,28 @@ def viscous(st, n):
     if xkx > 0.0 and xmx > 0.0:
         c_crit = min(2.0 * math.sqrt(xkx / xmx), VISCOUS_C_MAX)
     R_prev[:, :] = R
-    accelerate(V, R, st.Minv, free, n, (2.0 - c_crit) / (2.0 + c_crit), 2.0 / (2.0 + c_crit))
+    accelerate(V, st.A, n, (2.0 - c_crit) / (2.0 + c_crit), 2.0 / (2.0 + c_crit))
     return GOING
 
 
 @njit(cache=True, error_model="numpy")
 def fire(st, n):
     """FIRE at a fixed step (the masses already sit at the stability bound of dt = 1)."""
-    V, R, Minv, free, scratch = st.V, st.R, st.Minv, st.free, st.scratch
-    accelerate(V, R, Minv, free, n, 1.0, 1.0)
+    V, R, A, scratch = st.V, st.R, st.A, st.scratch
+    accelerate(V, A, n, 1.0, 1.0)
     power, v2, a2 = 0.0, 0.0, 0.0
     for i in range(n):
-        a = mul(Minv, i, R[i, 0], R[i, 1], R[i, 2])
         for c in range(3):
             power += R[i, c] * V[i, c]
             v2 += V[i, c] * V[i, c]
-            a2 += a[c] * a[c] * free[i, c]
+            a2 += A[i, c] * A[i, c]
     if power <= 0.0:
         scratch[ALPHA], scratch[CALM] = FIRE_ALPHA0, 0.0
         return RESTART
     alpha = scratch[ALPHA]
     if a2 > 0.0:
         k = alpha * math.sqrt(v2 / a2)
-        accelerate(V, R, Minv, free, n, 1.0 - alpha, k)
+        accelerate(V, A, n, 1.0 - alpha, k)
     scratch[CALM] += 1.0
     if scratch[CALM] > FIRE_N_MIN:
         scratch[ALPHA] = alpha * FIRE_F_ALPHA

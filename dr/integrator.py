@@ -9,7 +9,9 @@ not across it, which is what limits the step count. They are rebuilt whenever th
 have moved ``drift`` mm since the last rebuild (every step while they move fast): a light
 frame node moving across its links turns them by degrees per step, and a stale tensor would
 let the axial stiffness leak into the light direction. Without, they are Barnes' scalar
-masses f dt^2/2 S, updated every ``mass_every`` steps.
+masses f dt^2/2 S, updated every ``mass_every`` steps. With a frame mass
+(:mod:`dr.frame_mass`), the frame's nodes share one sparse mass matrix instead, refreshed when
+the nodes may have moved ``frame_drift`` mm since its last refresh and at every restart.
 """
 
 from __future__ import annotations
@@ -21,6 +23,7 @@ import numpy as np
 from numba import njit
 
 from . import damping as dmp
+from . import frame_mass as fmm
 from .contact import closest_pair, pairs_within
 from .kernels import gradient, stiffness
 
@@ -37,6 +40,7 @@ class State(NamedTuple):
     G: np.ndarray  # (m, 3) energy gradient (scratch), N
     M: np.ndarray  # (n, 6) masses, N per mm (dt = 1)
     Minv: np.ndarray  # (n, 6) their inverses
+    A: np.ndarray  # (n, 3) accelerations M^-1 R(t) at free DOFs, mm per step^2
     S: np.ndarray  # (m,) isotropic stiffness bounds, N/mm
     D: np.ndarray  # (m, 6) directional stiffness blocks ((0, 6) for scalar masses), N/mm
     free: np.ndarray  # (n, 3) 1 at free DOFs, 0 at fixed
@@ -61,6 +65,7 @@ class Settings(NamedTuple):
     runaway: float  # largest step of a stable run, mm
     mass_every: int  # steps between refreshes of the stiffness bounds
     drift: float  # mm the nodes may move before the tensor masses are rebuilt (0: every step)
+    frame_drift: float  # mm the nodes may move before the frame mass is refreshed
 
 
 def new_state(X: np.ndarray, free: np.ndarray, loads: np.ndarray, tensor: bool,
@@ -68,7 +73,7 @@ def new_state(X: np.ndarray, free: np.ndarray, loads: np.ndarray, tensor: bool,
     """A state at rest at X with zeroed work arrays."""
     n = free.shape[0]
     return State(X=X, V=np.zeros((n, 3)), R=np.zeros((n, 3)), G=np.zeros_like(X), M=np.zeros((n, 6)),
-                 Minv=np.zeros((n, 6)), S=np.zeros(X.shape[0]), D=np.zeros((X.shape[0] if tensor else 0, 6)),
+                 Minv=np.zeros((n, 6)), A=np.zeros((n, 3)), S=np.zeros(X.shape[0]), D=np.zeros((X.shape[0] if tensor else 0, 6)),
                  free=free, loads=loads, watched=watched, segments=segments, X0=X[:n].copy(),
                  R_prev=np.zeros((n, 3)), scratch=np.array([dmp.FIRE_ALPHA0, 0.0]))
 
@@ -101,10 +106,13 @@ def residual(st, P):
 
 
 @njit(cache=True, error_model="numpy")
-def build_masses(st, half_safety):
-    """M = f/2 (D + S I) per node, decoupled from fixed axes, and its inverse."""
+def build_masses(st, half_safety, frame_pos):
+    """M = f/2 (D + S I) per node, decoupled from fixed axes, and its inverse; not at the frame
+    mass's nodes (``frame_pos`` >= 0), whose mass is :func:`refresh_frame`'s."""
     D, S, free, M, Minv = st.D, st.S, st.free, st.M, st.Minv
     for i in range(M.shape[0]):
+        if frame_pos[i] >= 0:
+            continue
         s = S[i]
         if D.shape[0] > 0:
             # a direction without stiffness (a slack planar net, out of its plane) gets a
@@ -129,20 +137,66 @@ def build_masses(st, half_safety):
 
 
 @njit(cache=True, error_model="numpy")
-def start(st, P, half_safety):
-    """The first half step from rest: v(dt/2) = dt/2 M^-1 R, x(dt), and R and masses there."""
+def refresh_frame(st, P, fm, half_safety):
+    """Assemble and factorise the frame mass at st.X (st.D, st.S current); its diagonal goes
+    into st.M for the dampings that read a DOF's mass. Returns -1, or the model node that
+    nothing resists."""
+    bad = fmm.refresh(st.X, P, st.D, st.S, fm, half_safety)
+    if bad < 0:
+        fmm.diagonal(fm, st.M)
+    return bad
+
+
+@njit(cache=True, error_model="numpy")
+def accelerations(st, fm, n):
+    """st.A = M^-1 R: node-local 3x3 masses, and the frame mass's nodes by its factor."""
+    A, R, Minv, free, pos = st.A, st.R, st.Minv, st.free, fm.pos
+    for i in range(n):
+        if pos[i] >= 0:
+            continue
+        a = dmp.mul(Minv, i, R[i, 0], R[i, 1], R[i, 2])
+        for c in range(3):
+            A[i, c] = a[c] * free[i, c]
+    if fm.nodes.shape[0] > 0:
+        fmm.solve(fm, R, A, free)
+
+
+@njit(cache=True, error_model="numpy")
+def momentum(st, fm, n):
+    """Largest nodal momentum |M v| at free nodes, N (dt = 1)."""
+    M, V, pos = st.M, st.V, fm.pos
+    best2 = 0.0
+    for i in range(n):
+        if pos[i] >= 0:
+            continue
+        m = dmp.mul(M, i, V[i, 0], V[i, 1], V[i, 2])
+        best2 = _nanmax(best2, m[0] * m[0] + m[1] * m[1] + m[2] * m[2])
+    if fm.nodes.shape[0] > 0:
+        best2 = _nanmax(best2, fmm.momentum_max2(fm, V))
+    return math.sqrt(best2)
+
+
+@njit(cache=True, error_model="numpy")
+def start(st, P, fm, half_safety):
+    """The first half step from rest: v(dt/2) = dt/2 M^-1 R, x(dt), and R, masses and
+    accelerations there. Returns -1, or a node the frame mass found unresisted."""
     st.R_prev[:, :] = st.R
-    dmp.accelerate(st.V, st.R, st.Minv, st.free, P.n, 0.0, 0.5)
+    accelerations(st, fm, P.n)
+    dmp.accelerate(st.V, st.A, P.n, 0.0, 0.5)
     for i in range(P.n):
         for c in range(3):
             st.X[i, c] += st.V[i, c]
     residual(st, P)
+    bad = -1
     if st.D.shape[0] > 0:
-        build_masses(st, half_safety)
+        build_masses(st, half_safety, fm.pos)
+        bad = refresh_frame(st, P, fm, half_safety)
+    accelerations(st, fm, P.n)
+    return bad
 
 
 @njit(cache=True, error_model="numpy")
-def run(st, P, cfg):
+def run(st, P, cfg, fm):
     """Advance up to ``cfg.max_steps`` leapfrog steps with the damping ``cfg.damping``.
 
     On entry st.X[:n] is x(t), st.V is v(t - dt/2), st.R is R(t) and st.M, st.Minv the masses
@@ -157,7 +211,9 @@ def run(st, P, cfg):
     listed pairs are tested whenever they may have moved d/4, so nothing passes through
     unseen. The stiffness bounds behind the masses are refreshed every ``mass_every`` steps,
     and tensor masses rebuilt once the nodes may have moved ``cfg.drift`` mm (the sum of the
-    largest step of each step) since the last rebuild.
+    largest step of each step) since the last rebuild; the frame mass ``fm``
+    (:mod:`dr.frame_mass`, possibly empty) once they may have moved ``cfg.frame_drift`` mm, and
+    at every restart from a moved-back state.
 
     Returns (reason, steps, restarts, largest element force, max residual).
     """
@@ -166,7 +222,7 @@ def run(st, P, cfg):
     # unless numba can prove it needless, which costs about 0.5 us per record per call; the
     # per-step calls below take arrays or records that numba prunes (issue 13).
     n = P.n
-    X, V, R, G, D, M = st.X, st.V, st.R, st.G, st.D, st.M
+    X, V, R, G, D = st.X, st.V, st.R, st.G, st.D
     loads, free, watched, segments = st.loads, st.free, st.watched, st.segments
     scheme = cfg.damping
     tensor = st.D.shape[0] > 0
@@ -182,6 +238,8 @@ def run(st, P, cfg):
     moved_list = 0.0
     moved_check = 0.0
     drifted = math.inf  # rebuild at the first step
+    frame = fm.nodes.shape[0] > 0
+    frame_drifted = 0.0
     while steps < cfg.max_steps:
         if scheme == dmp.VISCOUS:
             how = dmp.viscous(st, n)
@@ -195,11 +253,15 @@ def run(st, P, cfg):
                 gradient(X, P, G, D)
                 collect(R, G, loads, free, n)
                 if tensor:
-                    build_masses(st, cfg.half_safety)
-            dmp.accelerate(V, R, st.Minv, free, n, 0.0, 0.5)
+                    build_masses(st, cfg.half_safety, fm.pos)
+                if frame:
+                    frame_drifted = 0.0
+                    if refresh_frame(st, P, fm, cfg.half_safety) >= 0:
+                        return NONFINITE, steps, restarts, fmax, rmax
+                accelerations(st, fm, n)
+            dmp.accelerate(V, st.A, n, 0.0, 0.5)
         step_max2 = 0.0
         watch_max2 = 0.0
-        mom_max2 = 0.0
         for i in range(n):
             v2 = 0.0
             for c in range(3):
@@ -208,29 +270,36 @@ def run(st, P, cfg):
             step_max2 = _nanmax(step_max2, v2)
             if watched[i]:
                 watch_max2 = _nanmax(watch_max2, v2)
-            m = dmp.mul(M, i, V[i, 0], V[i, 1], V[i, 2])
-            mom_max2 = _nanmax(mom_max2, m[0] * m[0] + m[1] * m[1] + m[2] * m[2])
         steps += 1
         refresh = steps % cfg.mass_every == 0
         if refresh:
             stiffness(X, P, st.S, not tensor)
-        drifted += math.sqrt(step_max2)
-        rebuild = tensor and drifted > cfg.drift
+        step_max = math.sqrt(step_max2)
+        drifted += step_max
+        frame_drifted += step_max
+        frame_refresh = frame and frame_drifted > cfg.frame_drift
+        rebuild = tensor and (drifted > cfg.drift or frame_refresh)
         if rebuild:
             drifted = 0.0
         fmax = gradient(X, P, G, D if rebuild or not tensor else no_blocks)
         rmax = collect(R, G, loads, free, n)
         if rebuild or refresh:
-            build_masses(st, cfg.half_safety)
-        step_max = math.sqrt(step_max2)
+            build_masses(st, cfg.half_safety, fm.pos)
+        if frame_refresh:
+            frame_drifted = 0.0
+            if refresh_frame(st, P, fm, cfg.half_safety) >= 0:
+                return NONFINITE, steps, restarts, fmax, rmax
+        elif frame and rebuild:
+            fmm.follow(X, fm)
+        accelerations(st, fm, n)
         moved_list += math.sqrt(watch_max2)
         moved_check += math.sqrt(watch_max2)
-        if not (math.isfinite(rmax) and math.isfinite(step_max) and math.isfinite(mom_max2)):
+        if not (math.isfinite(rmax) and math.isfinite(step_max)):
             return NONFINITE, steps, restarts, fmax, rmax
         if step_max > cfg.runaway:
             return RUNAWAY, steps, restarts, fmax, rmax
         scale = max(fmax, cfg.force_floor)
-        if rmax <= cfg.tol * scale and math.sqrt(mom_max2) <= cfg.tol * scale:
+        if rmax <= cfg.tol * scale and momentum(st, fm, n) <= cfg.tol * scale:
             return CONVERGED, steps, restarts, fmax, rmax
         if check and moved_check > 0.25 * contact_distance:
             moved_check = 0.0

@@ -47,6 +47,7 @@ class Packed(NamedTuple):
     link_L0: np.ndarray  # mm
     link_tension_only: np.ndarray  # bool
     link_frame: np.ndarray  # bool: frame axial (True) or membrane (False), for the energy split
+    link_block: np.ndarray  # bool: its stiffness is in the frame mass (dr.frame_mass), not in D
     clu_ptr: np.ndarray  # (c+1,) into clu_nodes
     clu_nodes: np.ndarray  # chains, concatenated
     clu_EA: np.ndarray  # N

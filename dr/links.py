@@ -20,7 +20,8 @@ def tension(EA, L0, L, tension_only):
 @njit(cache=True, error_model="numpy", inline="always")
 def gradient(X, P, G, D):
     """Add the links' energy gradient to G and, if D has rows, each link end's exact block
-    EA/L0 e e^T + |T|/L (I - e e^T) (a link's stiffness is at most twice its block diagonal).
+    EA/L0 e e^T + |T|/L (I - e e^T) (a link's stiffness is at most twice its block diagonal),
+    except for the links whose stiffness the frame mass carries (``link_block``).
     Returns the largest link force, N."""
     fmax = 0.0
     for k in range(P.link_ij.shape[0]):
@@ -31,7 +32,7 @@ def gradient(X, P, G, D):
         fmax = max(fmax, abs(t))
         add_to(G, i, d, -t / L)
         add_to(G, j, d, t / L)
-        if D.shape[0] > 0:
+        if D.shape[0] > 0 and not P.link_block[k]:
             e = scale(d, 1.0 / L)
             ka, kg = P.link_EA[k] / P.link_L0[k], abs(t) / L
             add_block(D, i, e, ka, kg)

@@ -561,6 +561,7 @@ class Model:
             link_L0=ll0.astype(float),
             link_tension_only=lto.astype(bool),
             link_frame=lfr.astype(bool),
+            link_block=np.zeros(lfr.size, bool),
             clu_ptr=ptr,
             clu_nodes=cl_nodes.astype(np.int64),
             clu_EA=np.array([c[1] for c in self._clusters], dtype=float),

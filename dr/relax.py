@@ -12,6 +12,7 @@ from tqdm import tqdm
 from results import CellBlock, Result
 
 from . import dielectric
+from . import frame_mass as fmm
 from . import integrator as itg
 from .contact import FrameContact
 from .errors import DRError
@@ -45,6 +46,12 @@ the strip DEMES with triangles (refinement 0, flat to 110 %) this cut the time p
 quarter with the same iterations; a fixed interval of 10 steps instead made early, fast motion
 diverge (docs/dynamic_relaxation.md)."""
 
+FRAME_DRIFT = 0.3
+"""The frame mass (``masses="frame"``) is refreshed once the nodes may have moved this fraction
+of the shortest element edge since its last refresh, and at every kinetic-energy restart:
+between refreshes it is the stiffness of a frame that has moved by that much
+(docs/dynamic_relaxation.md, "Frame mass")."""
+
 
 def relax(
     model: Model,
@@ -54,7 +61,7 @@ def relax(
     x_start: np.ndarray | None = None,
     contact: FrameContact | None = None,
     final_checks: Sequence[Check] = (),
-    masses: str = "tensor",
+    masses: str = "frame",
     force_scale: float = 0.0,
     progress: bool = False,
     chunk: int = 20_000,
@@ -88,8 +95,11 @@ def relax(
         FOLD_PATIENCE chunk ends in a row (a clustered net may fold for a moment on its way and
         unfold again, so a single sighting does not stop it).
     masses
-        'tensor': direction-dependent masses from each link's stiffness, rebuilt every step
-        (a frame node is heavy along the frame only); 'scalar': Barnes' masses f dt^2/2 S.
+        'frame': the rods' nodes share one sparse mass from the rods' and frame links' own
+        stiffness (:mod:`dr.frame_mass`), every other node a tensor mass; where no rod is
+        modelled, or a rod node is held on some axes only, this is 'tensor'. 'tensor':
+        direction-dependent 3x3 masses from each element's stiffness, rebuilt on drift (a
+        frame node is heavy along the frame only); 'scalar': Barnes' masses f dt^2/2 S.
     force_scale
         Smallest force (N) the residual is measured against: the scale of a state whose
         element forces all vanish (an unstressed structure relaxing back to its rest shape).
@@ -123,8 +133,8 @@ def relax(
         raise DRError(f"mass_safety = {mass_safety!r} must be positive (f >= 1 is stable, 2 is safe)")
     if int(max_iterations) < 1:
         raise DRError("max_iterations must be at least 1")
-    if masses not in ("tensor", "scalar"):
-        raise DRError(f"masses = {masses!r}: use 'tensor' or 'scalar'")
+    if masses not in ("frame", "tensor", "scalar"):
+        raise DRError(f"masses = {masses!r}: use 'frame', 'tensor' or 'scalar'")
     if damping not in SCHEMES:
         raise DRError(f"damping = {damping!r}: use one of {', '.join(map(repr, SCHEMES))}")
     if not model.fixed.any():
@@ -154,8 +164,15 @@ def relax(
     if contact is not None:
         watched[contact.nodes] = True
         segments, closed, distance = contact.segments, contact.closed, contact.distance
-    st = itg.new_state(X, free, loads, masses == "tensor", watched, segments)
-    _update_masses(st, P, mass_safety)
+    fm = fmm.frame_mass_pattern(P, model.fixed) if masses == "frame" else None
+    if fm is None:
+        masses = "scalar" if masses == "scalar" else "tensor"
+        fm = fmm.empty(n, P.link_ij.shape[0])
+    else:
+        # the rods and the links in the frame mass leave their node blocks to it
+        P = P._replace(link_block=fm.link_in, rod_blocks=np.zeros((0,) + P.rod_blocks.shape[1:]))
+    st = itg.new_state(X, free, loads, masses != "scalar", watched, segments)
+    _update_masses(st, P, fm, mass_safety)
     if not (np.isfinite(st.R).all() and np.isfinite(st.Minv).all()):
         raise DRError(
             f"the {positions} positions give a non-finite force or mass, first at {where_not_finite(X, st.R, P)}; "
@@ -166,9 +183,9 @@ def relax(
         damping=SCHEMES[damping], half_safety=0.5 * mass_safety, max_steps=int(chunk), closed=bool(closed),
         contact_distance=float(distance), tol=float(tol), force_floor=_force_floor(X, P, loads, tol, force_scale),
         runaway=runaway, mass_every=MASS_EVERY,
-        drift=DRIFT_TURN * _shortest_edge(X, P),
+        drift=DRIFT_TURN * _shortest_edge(X, P), frame_drift=FRAME_DRIFT * _shortest_edge(X, P),
     )
-    itg.start(st, P, cfg.half_safety)
+    _unresisted(itg.start(st, P, fm, cfg.half_safety), "after the first step")
 
     e_start = _potential_energy(X, P, loads)
 
@@ -191,7 +208,7 @@ def relax(
         while True:
             steps_left = int(max_iterations) - it
             try:
-                code, steps, pk, fmax, rmax = itg.run(st, P, cfg._replace(max_steps=min(chunk, steps_left)))
+                code, steps, pk, fmax, rmax = itg.run(st, P, cfg._replace(max_steps=min(chunk, steps_left)), fm)
             except np.linalg.LinAlgError:  # a NaN reached the strip's mass bound (an eigensolver)
                 code, steps, pk, fmax, rmax = itg.NONFINITE, 0, 0, np.nan, np.nan
             it += steps
@@ -250,7 +267,8 @@ def relax(
     res = make_result(
         model, P, X, status == "converged", status, message, it, residual_now,
         np.array(history), time.perf_counter() - t0,
-        {"ke_peaks": peaks, "mass_safety": mass_safety, "masses": masses, "damping": damping},
+        {"ke_peaks": peaks, "mass_safety": mass_safety, "masses": masses, "damping": damping,
+         "frame_mass_nodes": int(fm.nodes.size)},
     )
     if not all(np.isfinite(v) for v in res.energy.values()) and status != "not_finite":
         res.converged, res.status = False, "not_finite"
@@ -276,7 +294,7 @@ def _potential_energy(X: np.ndarray, P: Packed, loads: np.ndarray) -> float:
     return float(sum(energy(X, P))) + float(dielectric.energy(X, P)) - float(np.sum(loads * X[: P.n]))
 
 
-def _update_masses(st: itg.State, P: Packed, safety: float) -> None:
+def _update_masses(st: itg.State, P: Packed, fm: fmm.FrameMass, safety: float) -> None:
     """Rebuild the stiffness bounds (beams, cables, strip blocks; all of it for scalar
     masses), the residual and directional blocks, and the masses. A free node that nothing
     resists is an input error."""
@@ -284,13 +302,21 @@ def _update_masses(st: itg.State, P: Packed, safety: float) -> None:
     stiffness(st.X, P, st.S, not tensor)
     itg.residual(st, P)
     diag = st.S[: P.n] + (st.D[: P.n, :3].max(axis=1) if tensor else 0.0)
-    loose = np.flatnonzero((diag <= 0) & st.free.any(axis=1))
+    loose = np.flatnonzero((diag <= 0) & st.free.any(axis=1) & (fm.pos < 0))
     if loose.size:
+        _unresisted(int(loose[0]), "")
+    itg.build_masses(st, 0.5 * safety, fm.pos)
+    _unresisted(itg.refresh_frame(st, P, fm, 0.5 * safety) if tensor else -1, "")
+    itg.accelerations(st, fm, P.n)
+
+
+def _unresisted(node: int, when: str) -> None:
+    """The input error of a free node without stiffness in some direction (node -1: none)."""
+    if node >= 0:
         raise DRError(
-            f"node {loose[0]} can move but no element resists it (no stiffness); connect it to "
-            "an element or support it"
+            f"node {node} can move but no element resists it{' ' + when if when else ''} (no stiffness); "
+            "connect it to an element or support it"
         )
-    itg.build_masses(st, 0.5 * safety)
 
 
 def _force_floor(X: np.ndarray, P: Packed, loads: np.ndarray, tol: float, force_scale: float) -> float:

@@ -34,7 +34,7 @@ ROWS = 7
 
 
 @njit(cache=True, error_model="numpy")
-def _edge(xl, r0, r1, rb0, with_d2):
+def edge_frame(xl, r0, r1, rb0, with_d2):
     """Frame (t, d2, n) of the edge from row r0 to r1 with bond rows rb0, rb0 + 1."""
     x0, x1 = get(xl, r0), get(xl, r1)
     e = sub(x1, x0)
@@ -89,8 +89,8 @@ def rod_local(xl, par, gl, want_grad):
     (t, d2, n) and its curvature vector (strip: (k_t, k_d2, k_n); paper: kb)."""
     strip = par[MODEL] == STRIP
     held_a, held_b = par[HELD_A] > 0.0, par[HELD_B] > 0.0
-    ga = _edge(xl, 0, 1, 3, strip)
-    gb = _edge(xl, 1, 2, 5, strip)
+    ga = edge_frame(xl, 0, 1, 3, strip)
+    gb = edge_frame(xl, 1, 2, 5, strip)
     Ra = _rest(par, FRAME_A) if held_a else (ga[0], ga[1], ga[2])
     Rb = _rest(par, FRAME_B) if held_b else (gb[0], gb[1], gb[2])
     frame = Rb if held_a else Ra
@@ -150,25 +150,41 @@ def gather(X, idx, xl):
 @njit(cache=True, error_model="numpy")
 def rod_hessian(xl, idx, par, H):
     """Hessian (21, 21) of one vertex term by central differences of its exact gradient."""
+    _differences(xl, idx, par, H, True)
+
+
+@njit(cache=True, error_model="numpy")
+def rod_hessian_forward(xl, idx, par, H):
+    """The Hessian by forward differences: half the gradient calls, first-order accurate (for
+    a mass bound, whose safety factor covers that)."""
+    _differences(xl, idx, par, H, False)
+
+
+@njit(cache=True, error_model="numpy")
+def _differences(xl, idx, par, H, central):
     gp = np.zeros((ROWS, 3))
     gm = np.zeros((ROWS, 3))
     h = 1e-6 * norm(sub(get(xl, 2), get(xl, 0)))
     H[:] = 0.0
+    if not central:
+        rod_local(xl, par, gm, True)
     for r in range(ROWS):
         if idx[r] < 0:
             continue
         for c in range(3):
             x0 = xl[r, c]
             gp[:] = 0.0
-            gm[:] = 0.0
             xl[r, c] = x0 + h
             rod_local(xl, par, gp, True)
-            xl[r, c] = x0 - h
-            rod_local(xl, par, gm, True)
+            if central:
+                gm[:] = 0.0
+                xl[r, c] = x0 - h
+                rod_local(xl, par, gm, True)
             xl[r, c] = x0
+            step = 2.0 * h if central else h
             for rr in range(ROWS):
                 for cc in range(3):
-                    H[3 * rr + cc, 3 * r + c] = (gp[rr, cc] - gm[rr, cc]) / (2.0 * h)
+                    H[3 * rr + cc, 3 * r + c] = (gp[rr, cc] - gm[rr, cc]) / step
 
 
 @njit(cache=True, error_model="numpy", inline="always")
@@ -185,7 +201,8 @@ def gradient(X, P, G, D):
         gather(X, idx, xl)
         gl[:] = 0.0
         _, _, frame, _ = rod_local(xl, P.rod_par[k], gl, True)
-        turn = D.shape[0] > 0 and P.rod_par[k, MODEL] == STRIP
+        # no blocks (rod_blocks without rows): the rod's stiffness is in the frame mass
+        turn = D.shape[0] > 0 and P.rod_blocks.shape[0] > 0 and P.rod_par[k, MODEL] == STRIP
         for r in range(ROWS):
             if idx[r] >= 0:
                 add_to(G, idx[r], get(gl, r), 1.0)
@@ -213,7 +230,10 @@ def energy(X, P):
 def stiffness(X, P, S, with_links):
     """Gershgorin row sums of each vertex term's Hessian into S (scalar masses, and the
     isotropic rod always), or else the strip rod's blocks in its material frame into
-    P.rod_blocks for :func:`gradient` to turn."""
+    P.rod_blocks for :func:`gradient` to turn; nothing where the frame mass carries the rod
+    (P.rod_blocks without rows, :mod:`dr.frame_mass`)."""
+    if P.rod_blocks.shape[0] == 0 and not with_links:
+        return
     xl = np.zeros((ROWS, 3))
     H = np.zeros((3 * ROWS, 3 * ROWS))
     for k in range(P.rod_idx.shape[0]):
