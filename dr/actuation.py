@@ -21,6 +21,7 @@ from scenes.electric import (FLAT_DEG, check_voltages, dielectric_coefficient, m
                              path_end)
 
 from .demes import build, check_voltage_net, solve
+from .film_cells import film_surface
 from .relax import relax
 
 BISECTIONS = 4
@@ -103,6 +104,7 @@ def _finish(res: Result, scene: Scene, dm, voltage: float, flat_area: float) -> 
     res.frame_nodes, res.frame_s = dm.frame_nodes, dm.frame_s
     dm.model.dielectric_coefficient = dielectric_coefficient(scene, voltage)
     e_el, area = dm.model.dielectric_energy(res.x)
+    res.blocks = {**res.blocks, "membrane_surface": film_surface(dm.model, res.x, scene)}
     res.info.update(voltage_V=voltage, capacitor_energy=-e_el + 0.0, electrostatic_energy=e_el,
                     film_area_mm2=area, film_thickness_mm=mounted_thickness(scene) * flat_area / area)
     res.message = f"V = {voltage:g} V: {res.message}"

@@ -16,6 +16,7 @@ from scenes.mesh import membrane_mesh, transfer_linear
 from scenes.scene import prestretch_value
 
 from .contact import FilmCrossing, FrameContact, MembraneFold
+from .film_cells import cluster_strains, film_surface
 from .kernels import place_virtual
 from .model import Model
 from .net import Net, build_net
@@ -149,9 +150,8 @@ def paper_formula_membrane_energy(model: Model, x: np.ndarray) -> float:
     L0 = P.link_L0[mem]
     eps = (L - L0) / L0
     N = np.where(P.link_tension_only[mem] & (eps < 0), 0.0, P.link_EA[mem] * eps)
-    seg = np.linalg.norm(X[P.clu_seg[:, 1]] - X[P.clu_seg[:, 0]], axis=1)
-    Lc = np.bincount(P.clu_seg_cluster, weights=seg, minlength=P.clu_L0.size)
-    eps_c = (Lc - P.clu_L0) / P.clu_L0
+    eps_c = cluster_strains(P, X)
+    Lc = P.clu_L0 * (1.0 + eps_c)
     Nc = np.where(P.clu_tension_only & (eps_c < 0), 0.0, P.clu_EA * eps_c)
     # the row of triangles at the bond line is no tension element: its exact energy is added
     return float(0.5 * (np.sum(N * eps * L) + np.sum(Nc * eps_c * Lc)) + triangle_energy(X, P))
@@ -344,6 +344,7 @@ def solve(scene: Scene, prestretch: float | None = None, x_start: np.ndarray | N
         coarse_iterations=coarse.iterations if coarse is not None else 0,
         reached_prestretch=current,
     )
+    res.blocks["membrane_surface"] = film_surface(dm.model, res.x, res.scene)
     res.info["slack_area_fraction_any"], res.info["slack_area_fraction_full"] = slack_fractions(dm, res)
     if dm.net is not None:  # the formula is a sum over tension elements: the nets only
         res.info["energy_membrane_paper_formula"] = paper_formula_membrane_energy(dm.model, res.x)

@@ -200,8 +200,7 @@ def voltage_sweep(scene: Scene, voltages: Sequence[float], refinement: int | Non
         out = Outcome(path.y, problem.lam, "converged", "", records)
         out.snaps = path.snaps[snapped:] if stop is None else []
         steps += len(records)
-        res = make_result(problem, out, problem.lam, 0.0, steps)
-        res.scene = scene.updated(**{"loading.voltage": path.voltage})
+        res = make_result(problem, out, problem.lam, 0.0, steps, scene.updated(**{"loading.voltage": path.voltage}))
         res.info.update(_actuation_info(problem, path.y, path.voltage))
         res.info["requested_voltage_V"] = v
         res.wall_time = time.perf_counter() - t0

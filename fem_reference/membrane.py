@@ -107,6 +107,14 @@ class Membrane:
         u = x - self.X
         return np.eye(3, 2)[:, :, None, None] + np.einsum("eai,eqaj->ijeq", u[self._dofs], self._grads)
 
+    def centroid_gradient(self, x: np.ndarray) -> np.ndarray:
+        """F (nel, 3, 2) at each element's centroid (reference coordinates (1/3, 1/3)) for node
+        positions x (nn, 3): one value per element for the film's output fields."""
+        centre = CellBasis(self.basis.mesh, self.basis.elem.elem, quadrature=(np.full((2, 1), 1.0 / 3.0), np.ones(1)))
+        grads = np.stack([phi[0].grad[:, :, 0] for phi in centre.basis])  # (nb, 2, nel)
+        u = x - self.X
+        return np.eye(3, 2) + np.einsum("eai,aje->eij", u[centre.element_dofs.T], grads)
+
     def law_state(self, x: np.ndarray, lam: float, order: int = 1) -> MembraneState:
         """F, W and (order 1) P = dW/dF at the quadrature points."""
         F = self.deformation_gradient(x)

@@ -5,25 +5,21 @@ from __future__ import annotations
 import numpy as np
 
 from results import CellBlock
+from results.film import FilmLaw, film_fields
+from scenes import Scene
 
 from .membrane import LATTICE_ANGLES_DEG
 from .model import DemesProblem
 
 
-def membrane_stresses(problem: DemesProblem, y: np.ndarray) -> dict[str, np.ndarray]:
-    """Per element (quadrature-point mean): principal tensions (N/mm), stresses (MPa), energy
-    density (N/mm = N mm per mm^2 of flat area), and the area ratio current/flat."""
+def membrane_fields(problem: DemesProblem, y: np.ndarray, scene: Scene) -> dict[str, np.ndarray]:
+    """Per element: the strain energy density (N/mm = N mm per mm^2 of flat area, quadrature
+    mean) and the film fields of :func:`results.film.film_fields` at its centroid, for
+    ``scene`` (the state's pre-stretch and voltage)."""
     xm = problem.film_positions(y)
-    tensions, J = problem.membrane.principal_tensions(xm, problem.lam)
-    # incompressible film: current thickness = mounted thickness / (current / flat area)
-    stress = tensions * J / problem.membrane.h
     return {
         "strain_energy_density_N_per_mm": problem.membrane.element_energy_density(xm, problem.lam),
-        "tension_principal_1_N_per_mm": tensions[0].mean(axis=1),
-        "tension_principal_2_N_per_mm": tensions[1].mean(axis=1),
-        "stress_principal_1_MPa": stress[0].mean(axis=1),
-        "stress_principal_2_MPa": stress[1].mean(axis=1),
-        "area_ratio": J.mean(axis=1),
+        **film_fields(problem.membrane.centroid_gradient(xm), FilmLaw.of_scene(scene)),
     }
 
 
@@ -79,11 +75,12 @@ def slack_fractions(problem: DemesProblem, y: np.ndarray) -> tuple[float, float]
             float((weights * slack.all(axis=0)).sum() / total))
 
 
-def blocks(problem: DemesProblem, y: np.ndarray) -> dict[str, CellBlock]:
-    """VTK cell blocks: membrane elements with their fields, frame edges with section forces."""
+def blocks(problem: DemesProblem, y: np.ndarray, scene: Scene) -> dict[str, CellBlock]:
+    """VTK cell blocks: membrane elements with their fields, frame edges with section forces;
+    ``scene`` is the state's (its pre-stretch and voltage)."""
     x = y.reshape(-1, 3)
     mesh = problem.mesh
     return {
-        "membrane": CellBlock(mesh.cell_type, mesh.cells, membrane_stresses(problem, y)),
+        "membrane": CellBlock(mesh.cell_type, mesh.cells, membrane_fields(problem, y, scene)),
         "frame": CellBlock("line", problem.rod.edges, problem.rod.section_forces(x)),
     }

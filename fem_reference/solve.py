@@ -324,8 +324,9 @@ def _newton_tails(records: list[StepRecord]) -> list[list[float]]:
 
 
 def make_result(problem: DemesProblem, out: Outcome, requested: float, wall: float,
-                steps_total: int) -> Result:
-    """The shared ``Result`` of a FEM state."""
+                steps_total: int, state_scene: Scene | None = None) -> Result:
+    """The shared ``Result`` of a FEM state; ``state_scene`` is its scene (default: the
+    problem's at the pre-stretch reached)."""
     scene = problem.scene
     lam = out.prestretch
     ev = problem.evaluate(out.y, 1)
@@ -366,6 +367,8 @@ def make_result(problem: DemesProblem, out: Outcome, requested: float, wall: flo
     if lam < requested - 1e-12:
         message += f"; the requested lambda = {requested:.3f} was not reached"
     mesh = problem.mesh
+    if state_scene is None:
+        state_scene = scene if lam == scene.prestretch else scene.updated(prestretch=lam)
     info = {
         "newton": [r.as_dict() for r in out.records],
         "newton_tails": _newton_tails(out.records),
@@ -407,8 +410,8 @@ def make_result(problem: DemesProblem, out: Outcome, requested: float, wall: flo
         prestretch=lam,
         frame_nodes=mesh.frame_nodes.copy(),
         frame_s=mesh.frame_s.copy(),
-        scene=scene if lam == scene.prestretch else scene.updated(prestretch=lam),
-        blocks=blocks(problem, out.y),
+        scene=state_scene,
+        blocks=blocks(problem, out.y, state_scene),
         point_data={},
         info=info,
     )

@@ -114,8 +114,8 @@ def test_result_fields_and_vtk(strip_states, tmp_path):
     assert np.all(res.x0[:, 2] == 0.0)
     mesh = meshio.read(res.write_vtk(tmp_path / "state.vtu"))
     names = set(mesh.cell_data)
-    for name in ("strain_energy_density_N_per_mm", "stress_principal_1_MPa",
-                 "stress_principal_2_MPa", "bending_moment_N_mm", "axial_force_N"):
+    for name in ("strain_energy_density_N_per_mm", "cauchy_stress_1_MPa",
+                 "cauchy_stress_2_MPa", "thickness_mm", "bending_moment_N_mm", "axial_force_N"):
         assert name in names
     assert "displacement_mm" in mesh.point_data
 

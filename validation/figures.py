@@ -36,8 +36,10 @@ def _save(fig, path: Path) -> Path:
     def write(tmp: Path) -> None:
         fig.savefig(tmp, dpi=110, bbox_inches="tight", format="png")
 
-    atomic_write(path, write)
-    plt.close(fig)
+    try:
+        return atomic_write(path, write)
+    finally:
+        plt.close(fig)
     return path
 
 
