@@ -22,10 +22,10 @@ STAMP = "demes_sources.sha256"
 """Name of the file, in each cache folder, holding the digest of the sources its kernels were made from."""
 
 
-def source_digest(package_dir: Path) -> str:
-    """SHA-256 (hex) of the names and contents of the ``*.py`` files in ``package_dir``."""
+def source_digest(paths: list[Path]) -> str:
+    """SHA-256 (hex) of the names and contents of the files ``paths``, in the order given."""
     h = hashlib.sha256()
-    for path in sorted(package_dir.glob("*.py")):
+    for path in paths:
         h.update(path.name.encode() + b"\0" + path.read_bytes() + b"\0")
     return h.hexdigest()
 
@@ -45,8 +45,9 @@ def clear_stale(package_dir: Path, folders: set[Path]) -> list[Path]:
     """Remove the cached kernels of the modules in ``package_dir`` from each of ``folders``
     whose stamp is not the digest of the sources now, and stamp it; returns the folders
     cleared. A folder that cannot be written is left alone (numba then compiles afresh)."""
-    digest = source_digest(package_dir)
-    stems = {p.stem for p in package_dir.glob("*.py")}
+    sources = sorted(package_dir.glob("*.py"))
+    digest = source_digest(sources)
+    stems = {p.stem for p in sources}
     cleared = []
     for folder in sorted(folders):
         stamp = folder / STAMP
