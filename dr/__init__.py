@@ -17,6 +17,9 @@ from .model import Model
 from .demes import build, solve, sweep
 from .relax import relax
 from .actuation import voltage_sweep
+from . import cache as _cache
+
+_cache.guard(__name__)  # before any kernel runs: a cached kernel may inline an edited function
 
 __all__ = ["Model", "relax", "solve", "sweep", "voltage_sweep", "build", "DRError", "FrameContact", "MembraneFold",
            "FilmCrossing"]

@@ -10,6 +10,7 @@
 
 from __future__ import annotations
 
+import re
 import sys
 from pathlib import Path
 from typing import Any
@@ -98,10 +99,30 @@ def load(source: str | Path) -> Scene:
         raise SceneError(f"{path}: not valid TOML: {exc}") from None
     except RecursionError:
         raise SceneError(f"{path}: not a scene: its tables or arrays are nested too deeply") from None
+    except ValueError as exc:  # the parser's int() refuses integers longer than sys.get_int_max_str_digits()
+        if "integer string conversion" not in str(exc):
+            raise SceneError(f"{path}: not valid TOML: {exc}") from None
+        raise SceneError(f"{path}: {_long_integer_field(path.read_bytes().decode('utf-8'))} is an integer "
+                         "too long to read; write a number of a few digits") from None
     except OSError as exc:
         raise SceneError(f"{path}: cannot be read: {exc.strerror or exc}") from None
     data.setdefault("name", path.stem)
     return Scene.from_dict(data)
+
+
+def _long_integer_field(text: str) -> str:
+    """The dotted name of the first field of TOML ``text`` whose value is an integer of more
+    than a thousand digits, or 'a field' if none is found at the start of a line."""
+    table = ""
+    for line in text.splitlines():
+        header = re.match(r"\s*\[+\s*([^\]]+?)\s*\]", line)
+        if header:
+            table = header.group(1).replace('"', "").replace("'", "") + "."
+            continue
+        field = re.match(r"\s*([^=#\s][^=#]*?)\s*=\s*[+-]?[0-9_]{1000,}", line)
+        if field:
+            return table + field.group(1).replace('"', "").replace("'", "")
+    return "a field"
 
 
 def paper_demes(prestretch: float = 1.5, frame_model: str = "strip", **changes: Any) -> Scene:

@@ -174,6 +174,8 @@ def test_sharp_cornered_frames_are_refused(outline):
     (b"\xff\xfe[frame]\n", "not UTF-8"),
     (b"x = " + b"[" * 5000 + b"]" * 5000, "nested too deeply"),
     (b"[frame]\nvertices = 0\noutline = 'polygon'\n", "frame.vertices"),
+    (b"[mesh]\ndivisions = " + b"7" * 5000 + b"\n", "mesh.divisions is an integer too long"),
+    (b"mesh = { divisions = " + b"7" * 5000 + b" }\n", "a field is an integer too long"),
 ])
 def test_bad_scene_files_are_named(tmp_path, content, words):
     path = tmp_path / "bad.toml"

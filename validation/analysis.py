@@ -52,6 +52,7 @@ class Analysis:
     limits: list[dict[str, Any]] = field(default_factory=list)  # DR's and the FEM's limits side by side
     second_states: list[dict[str, Any]] = field(default_factory=list)  # the search for other stable states
     experiment: Experiment | None = None  # the voltage runs (validation.experiment)
+    stale: list[str] = field(default_factory=list)  # complete runs made with another scene, settings or code
 
     @property
     def finest_fem(self) -> dict[float, tuple[int, Result]]:
@@ -66,6 +67,11 @@ class Analysis:
     def dr_limit(self) -> Reference | None:
         """DR's refined limit at the speed study's pre-stretch."""
         return self.dr_limits.get(self.plan.speed_prestretch)
+
+    @property
+    def resolved(self) -> list[str]:
+        """Runs solved again because the ones on disk were made with another scene, settings or code."""
+        return [r.label for r in self.plan.runs if self.records.get(r.label, {}).get("resolved")]
 
     @property
     def unfinished(self) -> list[str]:

@@ -261,6 +261,12 @@ def _findings(a: Analysis) -> list[str]:
             f"path's {r['theta_path']:.1f} deg" for r in second) + ".")
     elif a.second_states:
         out.append(f"The search for second stable states found none at {len(a.second_states)} pre-stretch levels.")
+    if a.resolved:
+        out.append(f"Runs solved again because the states on disk were made with another scene, settings or "
+                   f"code version: {', '.join(a.resolved)}.")
+    if a.stale:
+        out.append(f"Runs made with another scene, settings or code version than this report's (shown as they "
+                   f"are; run without --report-only to solve them again): {', '.join(a.stale)}.")
     if a.unfinished:
         out.append(f"Runs not finished when this report was written (their missing states are left out): "
                    f"{', '.join(a.unfinished)}.")

@@ -10,10 +10,18 @@ Runs of the plan that compute the same thing under two labels (the same solver, 
 and start; e.g. the speed study's tightest 40-division DR state is DR's own refinement at 40
 divisions) are solved once: the other label gets a copy of the states and files, and its
 record names the run it was copied from (``same_as``).
+
+A run on disk is reused only if it was made from the same computation by the same code: its
+record holds a key (:func:`run_key`) of the scene after the run's changes, its levels and
+options, and the sources of the packages that make states; a run whose key differs is solved
+again from scratch and its record says why (``resolved``). While ``run_plan`` fills a folder,
+the folder is locked against another process (:mod:`validation.lock`).
 """
 
 from __future__ import annotations
 
+import functools
+import hashlib
 import json
 import os
 import resource
@@ -29,7 +37,16 @@ from results import Result, atomic_write_text, level_label, load_result, save_re
 
 from . import experiment
 from .executor import DEFAULT_WORKERS, connect, run_tasks
+from .lock import folder_lock
 from .plan import Plan, Run
+
+STATE_CODE = ("dr", "fem_reference", "results", "scenes", "validation/experiment.py",
+              "validation/calibrate.py", "validation/actuate.py", "validation/runner.py")
+"""The sources whose code makes a run's states (packages: every ``*.py`` in them), relative to
+the project root: an edit of any of them makes the runs on disk stale."""
+
+RESOLVED = "its scene, settings or code differ from those its states were made with"
+"""Why a run on disk was solved again (its record's ``resolved``)."""
 
 
 def state_path(run_dir: Path, lam: float) -> Path:
@@ -118,8 +135,10 @@ def execute(run: Run, scene_data: dict[str, Any], out_dir: str,
     os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
     run_dir = Path(out_dir) / "runs" / run.label
     run_dir.mkdir(parents=True, exist_ok=True)
-    record: dict[str, Any] = {"run": _as_recorded(run), "states": [], "error": None, "complete": False}
-    _clear_another_run(run_dir, run)
+    key = run_key(run, scene_data)
+    record: dict[str, Any] = {"run": _as_recorded(run), "key": key, "states": [], "error": None, "complete": False}
+    if _clear_another_run(run_dir, run, key):
+        record["resolved"] = RESOLVED
     atomic_write_text(run_dir / "run.json", json.dumps(record, indent=1))
     measured = _reset_peak_memory()
     t0 = time.perf_counter()
@@ -157,6 +176,22 @@ def execute(run: Run, scene_data: dict[str, Any], out_dir: str,
     return record
 
 
+@functools.lru_cache(maxsize=1)
+def code_version() -> str:
+    """SHA-256 of the sources in :data:`STATE_CODE` as they are on disk (read once per process)."""
+    from dr.cache import source_digest
+
+    root = Path(__file__).resolve().parents[1]
+    paths = [p for name in STATE_CODE
+             for p in ([root / name] if name.endswith(".py") else sorted((root / name).glob("*.py")))]
+    return source_digest(paths)
+
+
+def run_key(run: Run, scene_data: dict[str, Any]) -> str:
+    """What a run's states are made from: its :func:`computation_key` and the :func:`code_version`."""
+    return hashlib.sha256((computation_key(run, scene_data) + code_version()).encode()).hexdigest()
+
+
 def computation_key(run: Run, scene_data: dict[str, Any]) -> str:
     """What ``run`` computes: solver, scene with the run's changes, levels, start and options.
     Two runs with one key give the same states bit for bit; a one-level DR sweep starts from
@@ -179,7 +214,8 @@ def copy_run(source: Run, target: Run, out_dir: Path) -> None:
     are replaced, and the record, written last, names the run it comes from (``same_as``)."""
     src, dst = out_dir / "runs" / source.label, out_dir / "runs" / target.label
     dst.mkdir(parents=True, exist_ok=True)
-    _clear_another_run(dst, target)
+    record = run_record(src) or {}
+    resolved = _clear_another_run(dst, target, record.get("key"))
     for path in sorted(src.iterdir()):
         if path.name == "run.json" or not path.is_file():
             continue
@@ -190,23 +226,36 @@ def copy_run(source: Run, target: Run, out_dir: Path) -> None:
             part = dst / f".{name}.part"  # atomic: an interrupted copy leaves no half state
             shutil.copyfile(path, part)
             os.replace(part, dst / name)
-    record = run_record(src) or {}
     record.update(run=_as_recorded(target), same_as=source.label)
+    if resolved:
+        record["resolved"] = RESOLVED
     atomic_write_text(dst / "run.json", json.dumps(record, indent=1))
 
 
-def _clear_another_run(run_dir: Path, run: Run) -> None:
+def _clear_another_run(run_dir: Path, run: Run, key: str | None) -> bool:
     """Delete the states and VTK files in ``run_dir`` if its record is of another run (the plan
-    changed): they are not ``run``'s."""
+    changed) or of another :func:`run_key` (scene, settings or code changed): they are not
+    ``run``'s. Returns whether a record of a run with another key was there."""
     previous = run_record(run_dir)
-    if previous is not None and previous["run"] != _as_recorded(run):
+    if previous is None:
+        return False
+    if previous["run"] != _as_recorded(run) or previous.get("key") != key:
         for stale in [*run_dir.glob("*.npz"), *run_dir.glob("*.vtu"), *run_dir.glob("*.pvd")]:
             stale.unlink()
+    return previous["run"] == _as_recorded(run) and previous.get("key") != key
 
 
-def is_complete(run: Run, out_dir: Path) -> bool:
+def is_complete(run: Run, out_dir: Path, key: str) -> bool:
+    """Whether ``run`` is on disk, complete and made with :func:`run_key` ``key``."""
     rec = run_record(out_dir / "runs" / run.label)
-    return bool(rec and rec.get("complete") and rec["run"] == _as_recorded(run))
+    return bool(rec and rec.get("complete") and rec["run"] == _as_recorded(run) and rec.get("key") == key)
+
+
+def stale_runs(plan: Plan, scene_data: dict[str, Any], out_dir: Path) -> list[str]:
+    """Runs of ``plan`` complete on disk but made with another scene, settings or code."""
+    return [r.label for r in plan.runs
+            if (rec := run_record(out_dir / "runs" / r.label)) and rec.get("complete")
+            and rec.get("key") != run_key(r, scene_data)]
 
 
 def _as_recorded(run: Run) -> dict[str, Any]:
@@ -227,7 +276,12 @@ def run_plan(plan: Plan, scene_data: dict[str, Any], out_dir: Path, workers: int
     The runs go to the Dask cluster at ``scheduler`` if given, else to a LocalCluster of
     ``workers`` processes (``workers <= 1``: this process), see :mod:`validation.executor`.
     """
-    out_dir.mkdir(parents=True, exist_ok=True)
+    with folder_lock(out_dir, "demes validate"):
+        return _run_plan(plan, scene_data, out_dir, workers, progress, on_done, scheduler)
+
+
+def _run_plan(plan: Plan, scene_data: dict[str, Any], out_dir: Path, workers: int, progress: bool,
+              on_done: Callable[[dict[str, Any]], None] | None, scheduler: str | None) -> dict[str, dict[str, Any]]:
     todo, copies = _computations(plan, scene_data, out_dir)
     # the slowest first, so that the workers finish together: the runs that take minutes (the
     # reference levels, the main sweeps, DR's own refinement, the voltage runs, DR on 40 or more
@@ -258,10 +312,10 @@ def _computations(plan: Plan, scene_data: dict[str, Any], out_dir: Path
     copy here, without solving."""
     same: dict[str, list[Run]] = {}
     for run in plan.runs:
-        same.setdefault(computation_key(run, scene_data), []).append(run)
+        same.setdefault(run_key(run, scene_data), []).append(run)
     todo, copies = [], {}
-    for runs in same.values():
-        missing = [r for r in runs if not is_complete(r, out_dir)]
+    for key, runs in same.items():
+        missing = [r for r in runs if not is_complete(r, out_dir, key)]
         done = [r for r in runs if r not in missing]
         if done:
             for run in missing:

@@ -11,7 +11,7 @@ from . import experiment, figures
 from .analysis import analyse
 from .plan import build_plan
 from .report import write_report
-from .runner import run_plan
+from .runner import run_plan, stale_runs
 
 
 def validate(scene: scenes.Scene, out_dir: Path, quick: bool = False, workers: int = 2,
@@ -26,6 +26,8 @@ def validate(scene: scenes.Scene, out_dir: Path, quick: bool = False, workers: i
     if solve:
         run_plan(plan, scene.to_dict(), out_dir, workers=workers, progress=progress, scheduler=scheduler)
     a = analyse(plan, out_dir)
+    if not solve:
+        a.stale = stale_runs(plan, scene.to_dict(), out_dir)
     fig_dir = out_dir / "figures"
     figs = {
         "bending_angle": figures.bending_angle(a, fig_dir / "bending_angle.png"),
