@@ -444,6 +444,10 @@ class DRSpec(_Section):
         "with 'triangles' at fem.refinement >= 1, from the flat state: follow the path on refinement 0 and "
         "relax its state, interpolated, on the fine mesh")
     check_contact: bool = spec(True, boolean, "", "stop on frame self-contact or membrane folds")
+    masses: str = spec(
+        "frame", one_of("frame", "tensor", "scalar"), "",
+        "'frame': the frame rod's nodes share one sparse mass from its own stiffness, the film tensor "
+        "masses; 'tensor': a 3x3 mass per node; 'scalar': Barnes' masses (docs/dynamic_relaxation.md)")
     damping: str = spec(
         "kinetic", one_of("kinetic", "viscous", "fire"), "",
         "'kinetic' (Barnes' kinetic damping), 'viscous' (Underwood's adaptive coefficient) or 'fire' "
