@@ -110,10 +110,7 @@ def frame_mass_pattern(P, fixed: np.ndarray) -> FrameMass | None:
     pos[nodes] = np.arange(nodes.size)
     # envelope: the first coupled DOF of each row (the node's first DOF at least)
     first_node = np.arange(nodes.size)
-    for a, b in pr:
-        pa, pb = pos[members[a]], pos[members[b]]
-        if pb < first_node[pa]:
-            first_node[pa] = pb
+    np.minimum.at(first_node, pos[members[pr[:, 0]]], pos[members[pr[:, 1]]])
     first = np.repeat(3 * first_node, 3)
     start = np.zeros(3 * nodes.size + 1, np.int64)
     start[1:] = np.cumsum(np.arange(3 * nodes.size) - first + 1)
@@ -160,10 +157,10 @@ def _node_edges(P, pos: np.ndarray, f: int) -> tuple[np.ndarray, np.ndarray]:
 
 
 @njit(cache=True, error_model="numpy")
-def _frame(X, fm, a):
-    """Edge frame (t, d2, n) of node a's edge, flattened (9,); d2, n unused for TANGENT."""
+def _frame(X, fm, a, xl):
+    """Edge frame (t, d2, n) of node a's edge, flattened (9,); d2, n unused for TANGENT.
+    xl: (4, 3) scratch."""
     e = fm.edges[a]
-    xl = np.zeros((4, 3))
     for r in range(4):
         if e[r] >= 0:
             xl[r, 0], xl[r, 1], xl[r, 2] = X[e[r], 0], X[e[r], 1], X[e[r], 2]
@@ -174,11 +171,12 @@ def _frame(X, fm, a):
 @njit(cache=True, error_model="numpy")
 def follow(X, fm):
     """Rotations of the nodes' edge frames since the refresh (fm.turn)."""
+    xl = np.zeros((4, 3))
     for a in range(fm.nodes.shape[0]):
         k = fm.kind[a]
         if k == FIXED:
             continue
-        f = _frame(X, fm, a)
+        f = _frame(X, fm, a, xl)
         g = fm.frame_ref[a]
         R = fm.turn[a]
         if k == FULL:  # R = Q Q_ref^T, Q = [t d2 n] by columns
@@ -199,12 +197,13 @@ def follow(X, fm):
 @njit(cache=True, error_model="numpy")
 def _restart_frames(X, fm):
     """The current edge frames become the reference; no rotation."""
+    xl = np.zeros((4, 3))
     for a in range(fm.nodes.shape[0]):
         R = fm.turn[a]
         for r in range(9):
             R[r] = 1.0 if r % 4 == 0 else 0.0
         if fm.kind[a] != FIXED:
-            f = _frame(X, fm, a)
+            f = _frame(X, fm, a, xl)
             for r in range(9):
                 fm.frame_ref[a, r] = f[r]
 

@@ -307,7 +307,6 @@ def _update_masses(st: itg.State, P: Packed, fm: fmm.FrameMass, safety: float) -
         _unresisted(int(loose[0]), "")
     itg.build_masses(st, 0.5 * safety, fm.pos)
     _unresisted(itg.refresh_frame(st, P, fm, 0.5 * safety) if tensor else -1, "")
-    itg.accelerations(st, fm, P.n)
 
 
 def _unresisted(node: int, when: str) -> None:
