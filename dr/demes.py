@@ -20,13 +20,21 @@ from .film_cells import cluster_strains, film_surface
 from .kernels import place_virtual
 from .model import Model
 from .net import Net, build_net
+from . import stability
 from .relax import relax
 from .triangles import AREA as TRI_AREA, energy as triangle_energy, DIRECTIONS as TRI_DIRECTIONS, LAM as TRI_LAM, LAW as TRI_LAW, LINEAR as TRI_LINEAR
 
 
 FLAT_FRACTION = 0.05
 """A frame within this fraction of the side length of its plane counts as nearly flat: its
-pre-stretch steps are relaxed to the full tolerance."""
+pre-stretch steps are relaxed to the full tolerance and checked for stability."""
+
+SADDLE_STEP = 0.05
+"""The step off a saddle along its lowest mode, as a fraction of the side length, at the node
+that moves most (halved until the energy drops), as the FEM's continuation steps."""
+
+MAX_SADDLE_STEPS = 5
+"""Steps off saddles at one pre-stretch after which the state is reported 'unstable'."""
 
 
 @dataclass
@@ -373,14 +381,12 @@ def _follow_path(scene: Scene, dm: DemesModel, x_start: np.ndarray, start: float
         last = lam == stop
         # near the flat state (unstable, but an equilibrium) a loose tolerance accepts it
         # before the unstable mode has grown, and the path later snaps onto any branch
-        near_flat = np.abs(x_start[dm.frame_nodes, 2]).max() < FLAT_FRACTION * scene.outline.side_length
-        # near the flat state the frame mass, Newton-like, relaxes onto the unstable flat
-        # equilibrium before its unstable mode has grown (measured: 6 divisions at 1.15 ended
-        # flat, 0.7 deg); node-local masses are slow there, which lets the mode grow
-        how = dict(relax_with, masses="tensor") if near_flat and relax_with["masses"] == "frame" else relax_with
+        near_flat = _nearly_flat(scene, dm, x_start)
         res = relax(dm.model, tol=st.tolerance if (last or near_flat) else max(st.step_tolerance, st.tolerance),
-                    x_start=x_start, progress=progress and last, **how)
+                    x_start=x_start, progress=progress and last, **relax_with)
         runs.append(res)
+        if res.converged and _nearly_flat(scene, dm, res.x):
+            res = _off_saddles(scene, dm, res, runs, relax_with=relax_with)
         if not res.converged and step > st.prestretch_step:
             step = max(0.5 * step, st.prestretch_step)  # retry from the last converged state
             continue
@@ -389,6 +395,42 @@ def _follow_path(scene: Scene, dm: DemesModel, x_start: np.ndarray, start: float
         x_start, reached = res.x, lam
         if not near_flat:  # near it the branch is chosen: steps stay small there
             step = min(2.0 * step, largest)
+
+
+def _nearly_flat(scene: Scene, dm: DemesModel, x: np.ndarray) -> bool:
+    return bool(np.abs(x[dm.frame_nodes, 2]).max() < FLAT_FRACTION * scene.outline.side_length)
+
+
+def _off_saddles(scene: Scene, dm: DemesModel, res: Result, runs: list[Result], *, relax_with: dict) -> Result:
+    """A stable equilibrium from the converged nearly flat state ``res``: while its lowest
+    mode (:func:`dr.stability.lowest_mode`) has a negative stiffness, step along it, apex to
+    the side the scene's perturbation asks for, and relax again (each relaxation appended to
+    ``runs``). Sets ``info['saddle_steps']`` and ``info['lowest_eigenvalue']``; a state that
+    stays a saddle is returned with status 'unstable'."""
+    apex = dm.frame_nodes[np.argmin(np.abs(dm.frame_s - scene.outline.apex_arc_length()))]
+    up = np.sign(scene.perturbation.amplitude) or 1.0
+    lift = dm.start - dm.model.nodes
+    steps = 0
+    while True:
+        mode = stability.lowest_mode(dm.model, res.x, masses=relax_with["masses"], guess=lift)
+        res.info.update(saddle_steps=steps, lowest_eigenvalue=mode.eigenvalue)
+        if mode.eigenvalue >= -stability.NEUTRAL:
+            return res
+        tilt = mode.shape[apex, 2]
+        sign = up * (np.sign(tilt) if abs(tilt) > 1e-6 else np.sign(np.sum(mode.shape * lift)) or 1.0)
+        pushed = (stability.leave_saddle(dm.model, res.x, mode, sign=sign, size=SADDLE_STEP * scene.outline.side_length)
+                  if steps < MAX_SADDLE_STEPS else None)
+        if pushed is None:
+            res.converged, res.status = False, "unstable"
+            res.message += (f"; a saddle: its lowest mode has stiffness {mode.eigenvalue:.3g} (in units of the "
+                            f"masses) after {steps} steps along it")
+            return res
+        steps += 1
+        res = relax(dm.model, tol=scene.dr.tolerance, x_start=pushed, **relax_with)
+        runs.append(res)
+        if not (res.converged and _nearly_flat(scene, dm, res.x)):
+            res.info.update(saddle_steps=steps)
+            return res
 
 
 def _coarse_to_fine(scene: Scene, x_coarse: np.ndarray, dm: DemesModel) -> np.ndarray:

@@ -170,8 +170,10 @@ def _frame(X, fm, a, xl):
 
 @njit(cache=True, error_model="numpy")
 def follow(X, fm):
-    """Rotations of the nodes' edge frames since the refresh (fm.turn)."""
+    """Rotations of the nodes' edge frames since the refresh (fm.turn). Returns the largest
+    entry of R - I over the nodes (about the largest turn, rad)."""
     xl = np.zeros((4, 3))
+    turned = 0.0
     for a in range(fm.nodes.shape[0]):
         k = fm.kind[a]
         if k == FIXED:
@@ -192,6 +194,9 @@ def follow(X, fm):
                 for c in range(3):
                     kk = K[r][0] * K[0][c] + K[r][1] * K[1][c] + K[r][2] * K[2][c]
                     R[3 * r + c] = (1.0 if r == c else 0.0) + K[r][c] + w * kk
+        for r in range(9):
+            turned = max(turned, abs(R[r] - (1.0 if r % 4 == 0 else 0.0)))
+    return turned
 
 
 @njit(cache=True, error_model="numpy")

@@ -11,7 +11,8 @@ frame node moving across its links turns them by degrees per step, and a stale t
 let the axial stiffness leak into the light direction. Without, they are Barnes' scalar
 masses f dt^2/2 S, updated every ``mass_every`` steps. With a frame mass
 (:mod:`dr.frame_mass`), the frame's nodes share one sparse mass matrix instead, refreshed when
-the nodes may have moved ``frame_drift`` mm since its last refresh and at every restart.
+the nodes may have moved ``frame_drift`` mm since its last refresh, when a node's edge frame
+has turned ``frame_turn`` rad, and at every restart.
 """
 
 from __future__ import annotations
@@ -66,6 +67,7 @@ class Settings(NamedTuple):
     mass_every: int  # steps between refreshes of the stiffness bounds
     drift: float  # mm the nodes may move before the tensor masses are rebuilt (0: every step)
     frame_drift: float  # mm the nodes may move before the frame mass is refreshed
+    frame_turn: float  # rad a node's edge frame may turn before the frame mass is refreshed
 
 
 def new_state(X: np.ndarray, free: np.ndarray, loads: np.ndarray, tensor: bool,
@@ -212,8 +214,9 @@ def run(st, P, cfg, fm):
     unseen. The stiffness bounds behind the masses are refreshed every ``mass_every`` steps,
     and tensor masses rebuilt once the nodes may have moved ``cfg.drift`` mm (the sum of the
     largest step of each step) since the last rebuild; the frame mass ``fm``
-    (:mod:`dr.frame_mass`, possibly empty) once they may have moved ``cfg.frame_drift`` mm, and
-    at every restart from a moved-back state.
+    (:mod:`dr.frame_mass`, possibly empty) once they may have moved ``cfg.frame_drift`` mm or
+    an edge frame has turned ``cfg.frame_turn`` rad (checked at each tensor rebuild), and at
+    every restart from a moved-back state.
 
     Returns (reason, steps, restarts, largest element force, max residual).
     """
@@ -281,6 +284,8 @@ def run(st, P, cfg, fm):
         rebuild = tensor and (drifted > cfg.drift or frame_refresh)
         if rebuild:
             drifted = 0.0
+            if frame and not frame_refresh:
+                frame_refresh = fmm.follow(X, fm) > cfg.frame_turn
         fmax = gradient(X, P, G, D if rebuild or not tensor else no_blocks)
         rmax = collect(R, G, loads, free, n)
         if rebuild or refresh:
@@ -289,8 +294,6 @@ def run(st, P, cfg, fm):
             frame_drifted = 0.0
             if refresh_frame(st, P, fm, cfg.half_safety) >= 0:
                 return NONFINITE, steps, restarts, fmax, rmax
-        elif frame and rebuild:
-            fmm.follow(X, fm)
         accelerations(st, fm, n)
         moved_list += math.sqrt(watch_max2)
         moved_check += math.sqrt(watch_max2)

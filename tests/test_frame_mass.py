@@ -1,17 +1,13 @@
 """The frame mass (dr.frame_mass) bounds the stiffness it replaces, at states it did not make."""
 
-import importlib
-
 import numpy as np
 import pytest
 import scipy.linalg as sla
 
 import dr
 import scenes
-from dr import frame_mass, integrator
+from dr import masses
 from dr.kernels import gradient
-
-relax_module = importlib.import_module("dr.relax")
 
 
 def _dense_mass(st, fm, n):
@@ -42,13 +38,10 @@ def test_frame_mass_bounds_the_stiffness(prestretch):
     model = dr.build(scene).model
     P0 = model.pack()
     n = P0.n
-    fm = frame_mass.frame_mass_pattern(P0, model.fixed)
-    assert fm is not None and fm.nodes.size > 0
-    P = P0._replace(link_block=fm.link_in, rod_blocks=np.zeros((0,) + P0.rod_blocks.shape[1:]))
     X = state.x.copy()
-    st = integrator.new_state(X.copy(), (~model.fixed).astype(float), model.loads, True, np.zeros(n, bool),
-                              np.zeros((0, 2), np.int64))
-    relax_module._update_masses(st, P, fm, 2.0)
+    built = masses.masses_at(model, P0, np.vstack([X, np.zeros((P0.n_total - n, 3))]), "frame", 2.0)
+    assert built.kind == "frame" and built.frame.nodes.size > 0
+    P, st, fm = built.P, built.state, built.frame
     free = (~model.fixed).reshape(-1)
 
     def grad(x):
