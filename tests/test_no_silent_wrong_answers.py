@@ -191,7 +191,7 @@ def test_fem_reports_both_slack_fractions_in_the_info_and_the_csv_row():
     """A FEM result of the flat mesh shrunk across the base: the inclined lattice families go
     slack over the whole film (see test_fem_demes for the closed-form stretches)."""
     from fem_reference.model import DemesProblem
-    from fem_reference.solve import Outcome, make_result
+    from fem_reference.state import Outcome, make_result
 
     pb = DemesProblem(scenes.paper_demes(1.3, "strip", **{"mesh.divisions": 4}), 0, "P1")
     pb.lam = 1.3
