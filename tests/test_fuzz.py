@@ -90,7 +90,7 @@ outlines = st.one_of(
 def test_degenerate_outlines_solve_or_are_refused(vertices, radius, base, model):
     """Square, L-shaped, right-triangle and self-crossing outlines, sharp or filleted, on a
     coarse mesh and a short path: a SceneError, or a named status with finite converged states
-    (was: converged with all-NaN positions for corner_radius = 0)."""
+    (never 'converged' with all-NaN positions, as a sharp corner would give)."""
     try:
         scene = BASE.updated(**{"frame.outline": "polygon", "frame.vertices": [list(v) for v in vertices],
                                 "frame.corner_radius": radius, "supports.base": base, "frame.model": model,

@@ -266,8 +266,8 @@ def stale_runs(plan: Plan, scene_data: dict[str, Any], out_dir: Path) -> list[st
 
 
 def _as_recorded(run: Run) -> dict[str, Any]:
-    """``run`` as its record holds it (through JSON: tuples become lists). The voltage fields
-    are left out where they are off, so records written before they existed still match."""
+    """``run`` as its record holds it (through JSON: tuples become lists). The voltage and
+    polish fields are left out where they are off: a record holds the options its run uses."""
     rec = asdict(run)
     for key in ("voltages", "calibrate", "polish"):
         if not rec[key]:
