@@ -62,7 +62,7 @@ def sections() -> list[tuple[str, str, list[FieldDoc]]]:
     top = ("", "The scene's name and description, at the top of the file.",
            [_describe(f, "") for f in _spec_fields(Scene)])
     return [top] + [(key, " ".join((cls.__doc__ or "").split()), [_describe(f, f"{key}.") for f in _spec_fields(cls)])
-                    for key, cls in Scene._sections.items()]
+                    for key, cls in Scene.SECTIONS.items()]
 
 
 def _cell(text: str) -> str:

@@ -11,7 +11,7 @@ import dataclasses
 import math
 from dataclasses import dataclass, field
 from functools import cached_property
-from typing import Any, Callable
+from typing import Any, Callable, ClassVar
 
 import numpy as np
 
@@ -534,7 +534,7 @@ class Scene:
     dr: DRSpec = field(default_factory=DRSpec)
     fem: FEMSpec = field(default_factory=FEMSpec)
 
-    _sections = {
+    SECTIONS: ClassVar[dict[str, type]] = {  # the scene's TOML tables and their specs, in file order
         "frame": FrameSpec,
         "membrane": MembraneSpec,
         "loading": LoadingSpec,
@@ -586,14 +586,14 @@ class Scene:
         """Build and check a scene from a nested mapping (the parsed TOML)."""
         if not isinstance(data, dict):
             raise SceneError("a scene must be a table of sections")
-        known = set(cls._sections) | {"name", "description"}
+        known = set(cls.SECTIONS) | {"name", "description"}
         unknown = sorted(set(data) - known)
         if unknown:
             raise SceneError(
                 f"unknown section or field {unknown[0]!r}; a scene has: {', '.join(sorted(known))}"
             )
         kwargs: dict[str, Any] = {k: data[k] for k in ("name", "description") if k in data}
-        for key, section in cls._sections.items():
+        for key, section in cls.SECTIONS.items():
             if key in data:
                 kwargs[key] = section.from_dict(data[key])
         return cls(**kwargs)
@@ -601,7 +601,7 @@ class Scene:
     def to_dict(self) -> dict[str, Any]:
         """Nested mapping that :meth:`from_dict` turns back into an equal scene."""
         out: dict[str, Any] = {"name": self.name, "description": self.description}
-        for key in self._sections:
+        for key in self.SECTIONS:
             out[key] = getattr(self, key).to_dict()
         return out
 

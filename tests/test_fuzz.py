@@ -32,7 +32,7 @@ NAMED_STATUSES = {"converged", "max_iterations", "diverged", "not_finite", "self
                   "membrane_fold", "film_contact", "unstable", "time_limit", "compression"}
 
 BASE = scenes.load("demes_paper")
-FIELDS = [f"{key}.{f.name}" for key, section in scenes.Scene._sections.items()
+FIELDS = [f"{key}.{f.name}" for key, section in scenes.Scene.SECTIONS.items()
           for f in dataclasses.fields(section) if f.init]
 
 hostile_numbers = st.sampled_from([0, -1, -0.0, 1e-300, 5e-324, 1e300, 10**30, -10**30, math.nan, math.inf,
