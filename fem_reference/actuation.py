@@ -28,8 +28,9 @@ from scenes.electric import (FLAT_DEG, check_voltages, dielectric_coefficient, m
 
 from .model import DemesProblem
 from .newton import NewtonResult, NotFactorizable, newton
-from .solve import (SNAP_ITERATIONS, TOLERANCE, Continuation, Outcome, StepRecord,
-                    _neutral_tolerance, _refinement, lowest_free_mode, make_result)
+from .solve import SNAP_ITERATIONS, TOLERANCE, Continuation, refinement_level
+from .stability import lowest_free_mode, neutral_tolerance
+from .state import Outcome, StepRecord, make_result
 
 MIN_STEP_V = 0.5
 """Smallest voltage step (V): a branch that cannot be followed in smaller steps has ended."""
@@ -175,7 +176,7 @@ def voltage_sweep(scene: Scene, voltages: Sequence[float], refinement: int | Non
         ``voltage_V``, ``capacitor_energy`` (N mm), ``film_area_mm2``, ``film_thickness_mm``.
     """
     volts = check_voltages(voltages)
-    level = _refinement(scene, refinement)
+    level = refinement_level(scene, refinement)
     scene = scene.updated(**{"loading.voltage": 0.0})
     problem = DemesProblem(scene, level, scene.fem.element)
     t0 = time.perf_counter()
@@ -188,7 +189,7 @@ def voltage_sweep(scene: Scene, voltages: Sequence[float], refinement: int | Non
         return abs(outline_bending_angle(y.reshape(-1, 3)[mesh.frame_nodes], mesh.frame_s, scene.outline)) < FLAT_DEG
 
     path = VoltagePath(problem, pre.y, lambda v: dielectric_coefficient(scene, v),
-                       _neutral_tolerance(scene), flat=flat)
+                       neutral_tolerance(scene), flat=flat)
     stop = None if pre.converged else VoltageStop(pre.status, "the pre-stretched state: " + pre.detail)
     records = list(pre.records)
     steps = 0

@@ -41,7 +41,8 @@ class Evaluation:
 
 
 @BilinearForm
-def _mass_form(u, v, w):
+def mass_form(u, v, w):
+    """The film's mass per unit area: the L2 inner product of two displacement fields."""
     return fdot(u, v)
 
 
@@ -83,7 +84,7 @@ class DemesProblem:
         self.rod = Rod(self.X, chain, True, held, props, self._directors(),
                        self.offset)
         self.offset_nodes = np.flatnonzero(~held_chain)  # chain positions moved by the offset
-        self.mass = _mass_form.assemble(self.mesh.basis).tocsr()
+        self.mass = mass_form.assemble(self.mesh.basis).tocsr()
 
     def _directors(self) -> sp.csr_matrix:
         """Interpolation rows of the director points: the strip's inner edge (a line of mesh
@@ -222,7 +223,7 @@ class MembraneProblem:
         self.n_dofs = 3 * membrane.n_nodes
         self.free = np.flatnonzero(~np.repeat(held, 3))
         self.loads = np.asarray(loads, dtype=float).ravel()
-        self.mass = _mass_form.assemble(membrane.basis).tocsr()
+        self.mass = mass_form.assemble(membrane.basis).tocsr()
 
     def energy(self, y: np.ndarray) -> float:
         return self.membrane.energy(y.reshape(-1, 3), self.lam) - self.loads @ y

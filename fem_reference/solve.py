@@ -16,21 +16,20 @@ Newton from the state of the level below (mesh sequencing), falling back to its 
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, field
 from typing import Iterator, Sequence
 
 import numpy as np
 
-from results import ENERGY_KEYS, Result
+from results import Result
 from results.crossing import Crossing, film_crossing
 from scenes import Scene, SceneError
 from scenes.scene import integer_at_least, prestretch_list
 
 from .contact import Contact, frame_contact, membrane_fold
 from .model import DemesProblem
-from .newton import (NewtonResult, NotFactorizable, factorisation_count, lowest_mode, newton, positive_shift,
-                     shift_scale)
-from .output import blocks, compressed_fraction, paper_formula_membrane_energy, slack_fractions
+from .newton import NewtonResult, NotFactorizable, factorisation_count, newton, positive_shift, shift_scale
+from .stability import lowest_free_mode, neutral_tolerance
+from .state import Outcome, StepRecord, make_result
 
 FIRST_STEP = 0.01
 MAX_STEP = 0.05
@@ -41,52 +40,6 @@ MIN_STEP = 1e-4
 TOLERANCE = 1e-8  # largest free nodal force / largest membrane nodal force (round-off floor ~1e-10)
 MAX_EIGEN_STEPS = 6
 CONTACT_BRACKET = 1e-3  # first contact is located to within this pre-stretch interval
-
-
-@dataclass
-class StepRecord:
-    """One continuation step: its pre-stretch, Newton residual history and eigenmode steps."""
-
-    prestretch: float
-    iterations: int
-    residuals: list[float]
-    eigen_steps: int
-
-    def as_dict(self) -> dict:
-        return {"prestretch": self.prestretch, "iterations": self.iterations,
-                "residuals": self.residuals, "eigen_steps": self.eigen_steps}
-
-
-@dataclass
-class Outcome:
-    """Where the path got to for one requested pre-stretch."""
-
-    y: np.ndarray
-    prestretch: float
-    status: str
-    detail: str
-    records: list[StepRecord] = field(default_factory=list)
-    first_contact: tuple[float, float] | None = None  # (last free, first in contact) lambda
-    snaps: list[tuple[float, float]] = field(default_factory=list)  # limit points jumped
-    lowest_eigenvalue: float = float("nan")
-
-    @property
-    def converged(self) -> bool:
-        return self.status == "converged"
-
-
-def lowest_free_mode(problem: DemesProblem, y: np.ndarray) -> tuple[float, np.ndarray]:
-    """Lowest eigenvalue (N/mm^3) and mode of the tangent at y over the free DOFs, against the
-    film's mass matrix (per unit area)."""
-    K = problem.evaluate(y, 2).tangent
-    f = problem.free
-    return lowest_mode(K[f][:, f].tocsc(), problem.mass[f][:, f].tocsc())
-
-
-def _neutral_tolerance(scene: Scene) -> float:
-    """Eigenvalues (N/mm^3) above minus this count as zero: 1e-6 of E h / side^2, far above
-    round-off and far below any physical out-of-plane stiffness of the film."""
-    return 1e-6 * scene.membrane.E * scene.membrane.thickness / scene.outline.side_length**2
 
 
 class Continuation:
@@ -101,7 +54,7 @@ class Continuation:
         self.y = problem.reference()
         self.previous: tuple[float, np.ndarray] | None = None
         self.step = FIRST_STEP
-        self.neutral = _neutral_tolerance(self.scene)
+        self.neutral = neutral_tolerance(self.scene)
         self.apex = problem.mesh.frame_nodes[
             np.argmin(np.abs(problem.mesh.frame_s - self.scene.outline.apex_arc_length()))]
         self.lift = problem.initial_guess() - problem.initial_guess(lift=False)
@@ -308,7 +261,7 @@ class Continuation:
         return Outcome(self.y, self.lam, "converged", "", records)
 
 
-# ----------------------------------------------------------------------------- results
+# ----------------------------------------------------------------------------- paths
 
 
 def _check_prestretches(prestretches: Sequence[float]) -> list[float]:
@@ -317,107 +270,8 @@ def _check_prestretches(prestretches: Sequence[float]) -> list[float]:
     return sorted(set(prestretch_list("prestretches", prestretches)))
 
 
-def _newton_tails(records: list[StepRecord]) -> list[list[float]]:
-    """The last four relative residuals of each continuation step (quadratic: each about the
-    square of the one before, down to the round-off floor near 1e-10)."""
-    return [rec.residuals[-4:] for rec in records]
-
-
-def make_result(problem: DemesProblem, out: Outcome, requested: float, wall: float,
-                steps_total: int, state_scene: Scene | None = None) -> Result:
-    """The shared ``Result`` of a FEM state; ``state_scene`` is its scene (default: the
-    problem's at the pre-stretch reached)."""
-    scene = problem.scene
-    lam = out.prestretch
-    ev = problem.evaluate(out.y, 1)
-    energy = {k: ev.parts.get(k, 0.0) for k in ENERGY_KEYS if k != "total"}
-    energy["total"] = sum(energy.values())
-    residual = ev.gradient[problem.free]
-    residual = float(np.abs(residual).max() / ev.force_scale) if lam > 1.0 else 0.0
-    omega = float("nan")
-    if lam > 1.0:
-        try:
-            omega = lowest_free_mode(problem, out.y)[0] if out.converged else float("nan")
-        except NotFactorizable:
-            pass
-    stable = bool(omega > -_neutral_tolerance(scene)) if np.isfinite(omega) else lam == 1.0
-    iterations = sum(r.iterations for r in out.records)
-    compressed = compressed_fraction(problem, out.y) if lam > 1.0 else 0.0
-    slack = slack_fractions(problem, out.y) if lam > 1.0 else (0.0, 0.0)
-    status, converged = out.status, out.converged
-    what = {"converged": "converged", "self_contact": "stopped at self-contact",
-            "film_contact": "stopped where the film passes through itself or the frame",
-            "unstable": "found no stable state", "max_iterations": "did not converge",
-            "diverged": "diverged", "time_limit": "stopped at the time limit",
-            "not_finite": "stopped at a non-finite value"}[status]
-    message = (f"lambda = {lam:.3f}: {what}; relative residual {residual:.1e} after {iterations} "
-               f"Newton iterations in {len(out.records)} continuation steps")
-    if out.detail:
-        message += f"; {out.detail}"
-    if converged:
-        message += (f"; {'stable' if stable else 'UNSTABLE'} (lowest eigenvalue {omega:.3g} N/mm^3)"
-                    if lam > 1.0 else "; the flat state")
-    if scene.membrane.law != "linear" and compressed > 0.01:
-        status, converged = "compression", False
-        message += (f"; the {scene.membrane.law} film is in compression over {100 * compressed:.1f} % of its "
-                    "area: it would wrinkle, which this membrane model does not represent")
-    if out.snaps:
-        message += "; snapped through at " + ", ".join(
-            f"lambda = {a:.4f} -> {b:.4f}" for a, b in out.snaps) + " (end of the branch)"
-    if lam < requested - 1e-12:
-        message += f"; the requested lambda = {requested:.3f} was not reached"
-    mesh = problem.mesh
-    if state_scene is None:
-        state_scene = scene if lam == scene.prestretch else scene.updated(prestretch=lam)
-    info = {
-        "newton": [r.as_dict() for r in out.records],
-        "newton_tails": _newton_tails(out.records),
-        "lowest_eigenvalue_N_per_mm3": omega,
-        "stable": stable,
-        "continuation_steps": len(out.records),
-        "continuation_steps_total": steps_total,
-        "n_dofs": problem.n_dofs,
-        "n_free_dofs": int(problem.free.size),
-        "n_elements": int(mesh.cells.shape[0]),
-        "refinement": int(round(np.log2(scene.spacing / mesh.spacing))),
-        "element": mesh.element,
-        "mesh_size_mm": mesh.spacing,
-        "frame_model": scene.frame.model,
-        "film_offset_mm": problem.offset,
-        "director_lever_mm": scene.frame.lever,
-        "compressed_area_fraction": compressed,
-        "slack_area_fraction_any": slack[0],
-        "slack_area_fraction_full": slack[1],
-        "energy_membrane_paper_formula": paper_formula_membrane_energy(problem, out.y),
-        "requested_prestretch": requested,
-    }
-    if out.first_contact is not None:
-        info["first_contact_prestretch"] = out.first_contact
-    if out.snaps:
-        info["snaps"] = out.snaps
-    return Result(
-        solver="fem",
-        x=out.y.reshape(-1, 3).copy(),
-        x0=problem.X.copy(),
-        converged=converged,
-        status=status,
-        message=message,
-        iterations=iterations,
-        residual=residual,
-        wall_time=wall,
-        energy=energy,
-        residual_history=np.array([v for r in out.records for v in r.residuals]),
-        prestretch=lam,
-        frame_nodes=mesh.frame_nodes.copy(),
-        frame_s=mesh.frame_s.copy(),
-        scene=state_scene,
-        blocks=blocks(problem, out.y, state_scene),
-        point_data={},
-        info=info,
-    )
-
-
-def _refinement(scene: Scene, refinement: int | None) -> int:
+def refinement_level(scene: Scene, refinement: int | None) -> int:
+    """The FEM refinement level asked for (default ``scene.fem.refinement``), checked."""
     if not isinstance(scene, Scene):
         raise SceneError(f"expected a scenes.Scene, got {type(scene).__name__}; use scenes.load(...)")
     return scene.fem.refinement if refinement is None else integer_at_least(0, 5)("fem.refinement", refinement)
@@ -446,7 +300,7 @@ def sweep(scene: Scene, prestretches: Sequence[float], refinement: int | None = 
         since the previous state.
     """
     lams = _check_prestretches(prestretches)
-    level = _refinement(scene, refinement)
+    level = refinement_level(scene, refinement)
     problem = DemesProblem(scene, level, scene.fem.element)
     limit = scene.fem.time_limit
     deadline = time.perf_counter() + limit if limit > 0 else None
@@ -507,7 +361,7 @@ def solve_from(scene: Scene, x_start: np.ndarray, refinement: int | None = None)
     polishes a state found another way and says whether it is stable (``info['stable']``,
     ``info['lowest_eigenvalue_N_per_mm3']``). How a second stable state is checked.
     """
-    level = _refinement(scene, refinement)
+    level = refinement_level(scene, refinement)
     problem = DemesProblem(scene, level, scene.fem.element)
     x = np.asarray(x_start, dtype=float)
     if x.shape != problem.X.shape or not np.all(np.isfinite(x)):

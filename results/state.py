@@ -102,7 +102,9 @@ class Result:
     info: dict[str, Any] = field(default_factory=dict)
 
     # ----------------------------------------------------------------- frame measures
-    def _frame(self) -> tuple[np.ndarray, np.ndarray, float]:
+    def frame_arc(self) -> tuple[np.ndarray, np.ndarray, float]:
+        """The frame nodes' positions (k, 3) mm, their arc lengths on the flat outline (k,) mm
+        and the outline's length (mm): what every frame measure is computed from."""
         if self.frame_nodes is None or self.frame_s is None:
             raise ValueError("this model has no frame: add a beam chain or solve a scene")
         length = self.scene.outline.length if self.scene is not None else float(self.frame_s[-1])
@@ -111,12 +113,12 @@ class Result:
     def frame_curve(self, samples: int | None = None) -> np.ndarray:
         """Frame centreline (k, 3) mm: the frame nodes in order, or ``samples`` points at equal
         reference arc length from the base midpoint."""
-        x, s, length = self._frame()
+        x, s, length = self.frame_arc()
         return x if samples is None else metrics.resample(x, s, length, samples)
 
     def frame_point(self, s: float | np.ndarray) -> np.ndarray:
         """Frame position(s) (m, 3) at reference arc length(s) s, mm."""
-        x, s_nodes, length = self._frame()
+        x, s_nodes, length = self.frame_arc()
         return metrics.frame_at(x, s_nodes, length, np.atleast_1d(s))
 
     def _need_scene(self) -> None:
@@ -135,7 +137,7 @@ class Result:
         continuous from the flat state (:func:`results.metrics.bending_angle`); in a sweep, the
         turn nearest the previous state's angle (``info['previous_bending_angle']``)."""
         self._need_scene()
-        x, s, _ = self._frame()
+        x, s, _ = self.frame_arc()
         theta = metrics.outline_bending_angle(x, s, self.scene.outline)
         previous = self.info.get("previous_bending_angle")
         return theta if previous is None else metrics.nearest_turn(theta, previous)
@@ -150,8 +152,8 @@ class Result:
     def shape_error(self, other: "Result") -> tuple[float, float]:
         """RMS and max frame-curve distance to ``other`` at equal arc length, / side length."""
         self._need_scene()
-        xa, sa, length = self._frame()
-        xb, sb, _ = other._frame()
+        xa, sa, length = self.frame_arc()
+        xb, sb, _ = other.frame_arc()
         return metrics.shape_error(xa, sa, xb, sb, length, self.scene.outline.side_length)
 
     # ----------------------------------------------------------------- output

@@ -11,7 +11,7 @@ import dataclasses
 import math
 from dataclasses import dataclass, field
 from functools import cached_property
-from typing import Any, Callable
+from typing import Any, Callable, ClassVar
 
 import numpy as np
 
@@ -51,19 +51,38 @@ def _show(value: Any) -> str:
     return text if len(text) <= 60 else text[:57] + "..."
 
 
+class Check:
+    """A field's check: ``check(name, value)`` returns the value as the scene keeps it or raises
+    :class:`SceneError` naming the field; ``bounds`` says in words what it accepts (docs/scenes.md)."""
+
+    def __init__(self, fn: Callable[[str, Any], Any], bounds: str):
+        self.fn = fn
+        self.bounds = bounds
+
+    def __call__(self, name: str, value: Any) -> Any:
+        return self.fn(name, value)
+
+
+def checked(bounds: str) -> Callable[[Callable[[str, Any], Any]], Check]:
+    """Decorator: the function as a :class:`Check` accepting ``bounds``."""
+    return lambda fn: Check(fn, bounds)
+
+
 def between(low: float, high: float, low_open: bool = False, high_open: bool = False,
-            why: str = "") -> Callable[[str, Any], float]:
+            why: str = "") -> Check:
     """A number in [low, high] (an end excluded if ``*_open``)."""
+    lo, hi = "(" if low_open else "[", ")" if high_open else "]"
+
     def check(name: str, value: Any) -> float:
         v = _number(name, value)
         if v < low or (low_open and v == low) or v > high or (high_open and v == high):
-            lo, hi = "(" if low_open else "[", ")" if high_open else "]"
             raise SceneError(f"{name} = {v:g} must lie in {lo}{low:g}, {high:g}{hi}{why}")
         return v
 
-    return check
+    return Check(check, f"{lo}{low:g}, {high:g}{hi}")
 
 
+@checked("> 0")
 def positive(name: str, value: Any) -> float:
     v = _number(name, value)
     if v <= 0:
@@ -71,6 +90,7 @@ def positive(name: str, value: Any) -> float:
     return v
 
 
+@checked(">= 0")
 def non_negative(name: str, value: Any) -> float:
     v = _number(name, value)
     if v < 0:
@@ -78,10 +98,12 @@ def non_negative(name: str, value: Any) -> float:
     return v
 
 
+@checked("any finite number")
 def finite(name: str, value: Any) -> float:
     return _number(name, value)
 
 
+@checked(f"[1, {PRESTRETCH_MAX:g}]")
 def prestretch_value(name: str, value: Any) -> float:
     v = _number(name, value)
     if v < 1.0:
@@ -94,6 +116,7 @@ def prestretch_value(name: str, value: Any) -> float:
     return v
 
 
+@checked(">= 1")
 def permittivity_value(name: str, value: Any) -> float:
     v = _number(name, value)
     if v < 1.0:
@@ -108,6 +131,7 @@ GENT_JM_VHB = 6.0**2 + 2.0 / 6.0 - 3.0
 """Gent's Jm for VHB: a uniaxial locking stretch of 6 (published fits), I1 - 3 = 33.3."""
 
 
+@checked("> 0")
 def gent_jm_value(name: str, value: Any) -> float:
     v = _number(name, value)
     if v <= 0:
@@ -118,19 +142,22 @@ def gent_jm_value(name: str, value: Any) -> float:
     return v
 
 
+@checked(f"1 to {MAX_SWEEP} ratios, each in [1, {PRESTRETCH_MAX:g}]")
 def prestretch_list(name: str, value: Any) -> tuple[float, ...]:
     if not isinstance(value, (list, tuple)) or not 0 < len(value) <= MAX_SWEEP:
         raise SceneError(f"{name} must be a list of 1 to {MAX_SWEEP} pre-stretch ratios, e.g. [1.1, 1.3, 1.5]")
     return tuple(prestretch_value(f"{name}[{i}]", v) for i, v in enumerate(value))
 
 
+@checked("true or false")
 def boolean(name: str, value: Any) -> bool:
     if not isinstance(value, bool):
         raise SceneError(f"{name} = {_show(value)} must be true or false")
     return value
 
 
-def integer_at_least(low: int, high: int = 10**9) -> Callable[[str, Any], int]:
+def integer_at_least(low: int, high: int = 10**9) -> Check:
+    """A whole number in [low, high]."""
     def check(name: str, value: Any) -> int:
         if isinstance(value, bool) or not isinstance(value, int):
             raise SceneError(f"{name} = {_show(value)} must be a whole number")
@@ -140,25 +167,28 @@ def integer_at_least(low: int, high: int = 10**9) -> Callable[[str, Any], int]:
             raise SceneError(f"{name} = {_show(value)} is too large: use at most {high}")
         return value
 
-    return check
+    return Check(check, f"whole number in [{low}, {high}]" if high < 10**9 else f"whole number >= {low}")
 
 
-def one_of(*choices: str) -> Callable[[str, Any], str]:
+def one_of(*choices: str) -> Check:
+    """One of the texts ``choices``."""
     def check(name: str, value: Any) -> str:
         if not isinstance(value, str) or value not in choices:
             raise SceneError(f"{name} = {_show(value)} is not one of {', '.join(map(repr, choices))}")
         return value
 
-    return check
+    return Check(check, "one of " + ", ".join(f'"{c}"' for c in choices))
 
 
-def optional(check: Callable[[str, Any], Any]) -> Callable[[str, Any], Any]:
+def optional(check: Check) -> Check:
+    """``check``, or no value (the field's default rule applies)."""
     def wrapped(name: str, value: Any) -> Any:
         return None if value is None else check(name, value)
 
-    return wrapped
+    return Check(wrapped, f"{check.bounds}, or unset")
 
 
+@checked(f"3 to {MAX_VERTICES} [x, y] points, |x|, |y| <= 1e5")
 def vertex_list(name: str, value: Any) -> tuple[tuple[float, float], ...] | None:
     if value is None:
         return None
@@ -173,9 +203,11 @@ def vertex_list(name: str, value: Any) -> tuple[tuple[float, float], ...] | None
     return tuple(pts)
 
 
-def spec(default: Any, check: Callable[[str, Any], Any], unit: str = "", doc: str = "") -> Any:
-    """A scene field with its default, its check, its unit and a one-line description."""
-    return field(default=default, metadata={"check": check, "unit": unit, "doc": doc})
+def spec(default: Any, check: Check | None, unit: str = "", doc: str = "", bounds: str | None = None) -> Any:
+    """A scene field with its default, its check, its unit, a one-line description and what it
+    accepts (default: its check's ``bounds``; give it where the section checks more, across fields)."""
+    return field(default=default, metadata={"check": check, "unit": unit, "doc": doc,
+                                            "bounds": bounds if bounds is not None else check.bounds})
 
 
 class _Section:
@@ -224,10 +256,11 @@ class FrameSpec(_Section):
     """The frame strip: outline of its centreline, cross-section, material and model."""
 
     _prefix = "frame"
-    outline: str = spec("triangle", one_of("triangle", "polygon"), "", "outline kind")
-    side_length: float = spec(52.0, between(1e-2, 1e5), "mm", "side of the equilateral triangle")
-    vertices: Any = spec(None, vertex_list, "mm", "polygon corners (outline = 'polygon')")
-    corner_radius: float = spec(5.0, non_negative, "mm", "fillet radius at every corner")
+    outline: str = spec("triangle", one_of("triangle", "polygon"), "",
+                        "centreline outline: the equilateral triangle of frame.side_length, or the polygon of frame.vertices")
+    side_length: float = spec(52.0, between(1e-2, 1e5), "mm", "side of the equilateral triangle (outline = 'triangle')")
+    vertices: Any = spec(None, vertex_list, "mm", "polygon corners in any orientation, the side from the first to the second is the base (needed by outline = 'polygon')")
+    corner_radius: float = spec(5.0, non_negative, "mm", "fillet radius at every corner", bounds="> frame.width / 2")
     model: str = spec(
         "strip",
         one_of("strip", "paper"),
@@ -240,9 +273,10 @@ class FrameSpec(_Section):
     )
     film_side: str = spec("top", one_of("top", "bottom"), "", "face the film is bonded to")
     E: float = spec(2600.0, positive, "MPa", "Young's modulus of the strip")
-    poisson: float = spec(0.35, finite, "", "Poisson's ratio (torsion: G = E / (2 (1 + nu)))")
+    poisson: float = spec(0.35, between(-1.0, 0.5, low_open=True, high_open=True), "",
+                          "Poisson's ratio (torsion: G = E / (2 (1 + nu)))")
     width: float = spec(4.0, positive, "mm", "strip width b (in the membrane plane)")
-    thickness: float = spec(0.127, positive, "mm", "strip thickness t")
+    thickness: float = spec(0.127, positive, "mm", "strip thickness t", bounds="> 0, < frame.width")
     A: float | None = spec(0.5, optional(positive), "mm^2", "axial area; default b t")
     I: float | None = spec(
         0.0003, optional(positive), "mm^4", "weak-axis / isotropic second moment; default b t^3/12"
@@ -250,12 +284,11 @@ class FrameSpec(_Section):
     bond_lever: float | None = spec(
         None, optional(positive), "mm",
         "distance from the centreline to the film points that turn the strip's section; default b/2",
+        bounds="> 0, <= frame.width, or unset",
     )
 
     def __post_init__(self) -> None:
         super().__post_init__()
-        if not -1.0 < self.poisson < 0.5:
-            raise SceneError(f"frame.poisson = {self.poisson:g} must lie in (-1, 0.5)")
         if self.outline == "polygon" and self.vertices is None:
             raise SceneError("frame.outline = 'polygon' needs frame.vertices = [[x, y], ...] (mm)")
         if self.corner_radius <= 0.5 * self.width:
@@ -391,8 +424,10 @@ class PerturbationSpec(_Section):
     """Symmetry-breaking initial shape: z = (amplitude + asymmetry * x / (L/2)) * (y / H)^2."""
 
     _prefix = "perturbation"
-    amplitude: float = spec(0.5, finite, "mm", "initial apex lift (+ is up)")
-    asymmetry: float = spec(0.0, finite, "mm", "antisymmetric lift of the sides (tilt), mm")
+    amplitude: float = spec(0.5, finite, "mm", "initial apex lift (+ is up)",
+                            bounds="|amplitude| <= the base side; not 0 while asymmetry is 0")
+    asymmetry: float = spec(0.0, finite, "mm", "antisymmetric lift of the sides (tilt)",
+                            bounds="|asymmetry| <= the base side")
 
     def __post_init__(self) -> None:
         super().__post_init__()
@@ -408,7 +443,8 @@ class MeshSpec(_Section):
     """Mesh density: lattice divisions along the base side (DR) / element size side/divisions (FEM)."""
 
     _prefix = "mesh"
-    divisions: int = spec(28, integer_at_least(4, MAX_DIVISIONS), "", "divisions per base side")
+    divisions: int = spec(28, integer_at_least(4, MAX_DIVISIONS), "", "divisions per base side",
+                          bounds=f"whole number in [4, {MAX_DIVISIONS}]; divisions x 2^fem.refinement <= {2 * MAX_DIVISIONS}")
 
 
 @dataclass(frozen=True)
@@ -431,12 +467,13 @@ class DRSpec(_Section):
         "fictitious mass safety factor f (>= 1)")
     max_iterations: int = spec(3_000_000, integer_at_least(1), "", "time-step limit (per pre-stretch step)")
     prestretch_step: float = spec(
-        0.025, non_negative, "", "largest pre-stretch increment on the way to a state (0: all at once)"
-    )
+        0.025, non_negative, "", "largest pre-stretch increment on the way to a state (0: all at once)",
+        bounds=f"0, or in [0.001, {PRESTRETCH_MAX:g}]")
     prestretch_step_max: float = spec(
         0.0, non_negative, "",
         "largest pre-stretch increment the path grows to away from the flat state (doubling after each "
-        "converged step, halved on a stop); 0: every step dr.prestretch_step")
+        "converged step, halved on a stop); 0: every step dr.prestretch_step",
+        bounds=f"0, or in [dr.prestretch_step, {PRESTRETCH_MAX:g}]")
     step_tolerance: float = spec(
         1e-2, between(1e-12, 0.1, why=" (relative residual)"), "", "tolerance of the intermediate pre-stretch steps")
     coarse_start: bool = spec(
@@ -474,7 +511,8 @@ class FEMSpec(_Section):
 
     _prefix = "fem"
     element: str = spec("P1", one_of("P1", "P2"), "", "membrane element")
-    refinement: int = spec(0, integer_at_least(0, 5), "", "times the element size is halved")
+    refinement: int = spec(0, integer_at_least(0, 5), "", "times the element size is halved",
+                           bounds=f"whole number in [0, 5]; mesh.divisions x 2^refinement <= {2 * MAX_DIVISIONS}")
     time_limit: float = spec(
         0.0, between(0.0, 1e7), "s", "wall-time budget of one sweep (0: none); spent, the path stops with status 'time_limit'"
     )
@@ -484,8 +522,9 @@ class FEMSpec(_Section):
 class Scene:
     """A complete DEMES scene. Build with :func:`scenes.load` or :func:`scenes.paper_demes`."""
 
-    name: str = "scene"
-    description: str = ""
+    name: str = spec("scene", None, "", "the scene's name; the default output folder is named after it",
+                     bounds="text of at most 100 characters, no / or \\")
+    description: str = spec("", None, "", "what the scene is, in words", bounds="text of at most 10,000 characters")
     frame: FrameSpec = field(default_factory=FrameSpec)
     membrane: MembraneSpec = field(default_factory=MembraneSpec)
     loading: LoadingSpec = field(default_factory=LoadingSpec)
@@ -495,7 +534,7 @@ class Scene:
     dr: DRSpec = field(default_factory=DRSpec)
     fem: FEMSpec = field(default_factory=FEMSpec)
 
-    _sections = {
+    SECTIONS: ClassVar[dict[str, type]] = {  # the scene's TOML tables and their specs, in file order
         "frame": FrameSpec,
         "membrane": MembraneSpec,
         "loading": LoadingSpec,
@@ -547,14 +586,14 @@ class Scene:
         """Build and check a scene from a nested mapping (the parsed TOML)."""
         if not isinstance(data, dict):
             raise SceneError("a scene must be a table of sections")
-        known = set(cls._sections) | {"name", "description"}
+        known = set(cls.SECTIONS) | {"name", "description"}
         unknown = sorted(set(data) - known)
         if unknown:
             raise SceneError(
                 f"unknown section or field {unknown[0]!r}; a scene has: {', '.join(sorted(known))}"
             )
         kwargs: dict[str, Any] = {k: data[k] for k in ("name", "description") if k in data}
-        for key, section in cls._sections.items():
+        for key, section in cls.SECTIONS.items():
             if key in data:
                 kwargs[key] = section.from_dict(data[key])
         return cls(**kwargs)
@@ -562,7 +601,7 @@ class Scene:
     def to_dict(self) -> dict[str, Any]:
         """Nested mapping that :meth:`from_dict` turns back into an equal scene."""
         out: dict[str, Any] = {"name": self.name, "description": self.description}
-        for key in self._sections:
+        for key in self.SECTIONS:
             out[key] = getattr(self, key).to_dict()
         return out
 

@@ -15,7 +15,7 @@ import scenes
 from fem_reference.actuation import VoltagePath
 from fem_reference.dielectric import Dielectric, area_ratio_squared
 from fem_reference.membrane import Membrane
-from fem_reference.model import Evaluation, _mass_form
+from fem_reference.model import Evaluation, mass_form
 from fem_reference.newton import newton
 from scenes.electric import EPSILON_0, check_voltages, dielectric_coefficient
 from validation.electromechanics import (capacitor_energy, free_film_pull_in, free_film_stretch,
@@ -118,7 +118,7 @@ class FreeFilm:
         fixed[np.isclose(X[:, 1], 0), 1] = True
         self.X, self.n_dofs = X, X.size
         self.free = np.flatnonzero(~fixed.ravel())
-        self.mass = _mass_form.assemble(basis).tocsr()
+        self.mass = mass_form.assemble(basis).tocsr()
 
     def energy(self, y):
         x = y.reshape(-1, 3)
@@ -230,7 +230,7 @@ def test_dr_and_fem_dielectric_energies_agree():
     assert m.dielectric_energy(x)[1] == pytest.approx(diel.current_area(x), rel=1e-12)
 
 
-def _dr_quarter_film(mu: float, H: float, prestretch: float, voltage: float | None,
+def dr_quarter_film(mu: float, H: float, prestretch: float, voltage: float | None,
                      law: str = "neo-hookean", jm: float = np.inf):
     """A DR quarter film of neo-Hookean (or Gent) triangles (symmetry planes x = 0, y = 0,
     z held), with the dielectric at ``voltage`` (None: no dielectric term at all)."""
@@ -257,12 +257,12 @@ def test_dr_free_film_stretch_matches_zhao_suo():
     dielectric term changes nothing, bit for bit."""
     mu, H = 0.015, 0.1
     _, v_p = free_film_pull_in(mu, H, EPS_R)
-    _, stretch = _dr_quarter_film(mu, H, 1.0, 0.9 * v_p)
+    _, stretch = dr_quarter_film(mu, H, 1.0, 0.9 * v_p)
     assert stretch == pytest.approx(free_film_stretch(0.9 * v_p, mu, H, EPS_R), rel=1e-6)
     # mounted at pre-stretch 1.2, released: at 0 V it shrinks back to its rest state, with or
     # without the (zero-voltage) dielectric
-    x_none, s_none = _dr_quarter_film(mu, H, 1.2, None)
-    x_zero, _ = _dr_quarter_film(mu, H, 1.2, 0.0)
+    x_none, s_none = dr_quarter_film(mu, H, 1.2, None)
+    x_zero, _ = dr_quarter_film(mu, H, 1.2, 0.0)
     assert np.array_equal(x_none, x_zero) and s_none == pytest.approx(1 / 1.2, rel=1e-6)
 
 

@@ -164,7 +164,7 @@ def test_every_size_and_setting_is_bounded_before_work_starts(change, words):
     [[0, 0], [40, 0], [0, 40]],                                # right triangle
 ])
 def test_sharp_cornered_frames_are_refused(outline):
-    """corner_radius = 0 with a taped base used to give 'converged' with all-NaN positions."""
+    """corner_radius = 0 with a taped base would solve to 'converged' with all-NaN positions: refused."""
     with pytest.raises(scenes.SceneError, match="frame.corner_radius"):
         scenes.load("demes_paper").updated(**{"frame.outline": "polygon", "frame.vertices": outline,
                                                "frame.corner_radius": 0.0})

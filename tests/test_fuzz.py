@@ -32,7 +32,7 @@ NAMED_STATUSES = {"converged", "max_iterations", "diverged", "not_finite", "self
                   "membrane_fold", "film_contact", "unstable", "time_limit", "compression"}
 
 BASE = scenes.load("demes_paper")
-FIELDS = [f"{key}.{f.name}" for key, section in scenes.Scene._sections.items()
+FIELDS = [f"{key}.{f.name}" for key, section in scenes.Scene.SECTIONS.items()
           for f in dataclasses.fields(section) if f.init]
 
 hostile_numbers = st.sampled_from([0, -1, -0.0, 1e-300, 5e-324, 1e300, 10**30, -10**30, math.nan, math.inf,
@@ -90,7 +90,7 @@ outlines = st.one_of(
 def test_degenerate_outlines_solve_or_are_refused(vertices, radius, base, model):
     """Square, L-shaped, right-triangle and self-crossing outlines, sharp or filleted, on a
     coarse mesh and a short path: a SceneError, or a named status with finite converged states
-    (was: converged with all-NaN positions for corner_radius = 0)."""
+    (never 'converged' with all-NaN positions, as a sharp corner would give)."""
     try:
         scene = BASE.updated(**{"frame.outline": "polygon", "frame.vertices": [list(v) for v in vertices],
                                 "frame.corner_radius": radius, "supports.base": base, "frame.model": model,

@@ -111,8 +111,9 @@ def test_fem_newton_names_the_node_where_a_nan_appeared():
 
 
 def test_an_unstable_time_step_is_diverged_not_contact():
-    """Masses at half the stability bound on the paper scene: with the contact checks on it used
-    to stop as 'self_contact' at iteration 6; now both runs say 'diverged' and name the factor."""
+    """Masses at half the stability bound on the paper scene: the blow-up looks like
+    self-contact by iteration 6, yet with the contact checks on or off the run says 'diverged'
+    and names the factor."""
     scene = scenes.paper_demes(1.5, **{"mesh.divisions": 12})
     dm = dr.build(scene)
     for checks in (True, False):
@@ -191,7 +192,7 @@ def test_fem_reports_both_slack_fractions_in_the_info_and_the_csv_row():
     """A FEM result of the flat mesh shrunk across the base: the inclined lattice families go
     slack over the whole film (see test_fem_demes for the closed-form stretches)."""
     from fem_reference.model import DemesProblem
-    from fem_reference.solve import Outcome, make_result
+    from fem_reference.state import Outcome, make_result
 
     pb = DemesProblem(scenes.paper_demes(1.3, "strip", **{"mesh.divisions": 4}), 0, "P1")
     pb.lam = 1.3

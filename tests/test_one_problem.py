@@ -146,22 +146,22 @@ def test_linear_transfer_reproduces_an_affine_field_on_the_refined_mesh():
                                atol=1e-12 * scene.outline.side_length)
 
 
-def test_the_adaptive_path_and_the_coarse_start_reach_the_old_paths_state():
+def test_the_adaptive_path_and_the_coarse_start_reach_the_fixed_paths_state():
     """Steps growing to dr.prestretch_step_max, and the default coarse start (the path on
     refinement 0, its state interpolated onto refinement 1 and relaxed there), end at the state
-    the old path (fixed steps on refinement 1) ends at. Their gap shrinks with the tolerance (measured: 1e-3,
+    the fixed path (fixed steps on refinement 1) ends at. Their gap shrinks with the tolerance (measured: 1e-3,
     5e-5, 2e-6 deg at 1e-6, 1e-7, 1e-8), so at 1e-8 it shows one equilibrium; the supports stay
     where they are."""
     scene = _coarse("strip", **{"fem.refinement": 1, "dr.tolerance": 1e-8})
-    old = dr.solve(scene.updated(**{"dr.coarse_start": False}), 1.2)
+    fixed = dr.solve(scene.updated(**{"dr.coarse_start": False}), 1.2)
     adaptive = dr.solve(scene.updated(**{"dr.coarse_start": False, "dr.prestretch_step_max": 0.1}), 1.2)
     started = dr.solve(scene, 1.2)
     held = dr.build(scene, 1.2).model.fixed.all(axis=1)
-    assert old.bending_angle > 45.0  # the curled state, not the flat one
-    assert adaptive.info["prestretch_steps"] < old.info["prestretch_steps"]
+    assert fixed.bending_angle > 45.0  # the curled state, not the flat one
+    assert adaptive.info["prestretch_steps"] < fixed.info["prestretch_steps"]
     assert 0 < started.info["coarse_iterations"] < started.iterations
     for res in (adaptive, started):
-        assert old.converged and res.converged, (old.message, res.message)
-        np.testing.assert_array_equal(res.x[held], old.x0[held])
-        assert abs(res.bending_angle - old.bending_angle) <= 1e-4
-        assert res.shape_error(old)[0] <= 1e-6
+        assert fixed.converged and res.converged, (fixed.message, res.message)
+        np.testing.assert_array_equal(res.x[held], fixed.x0[held])
+        assert abs(res.bending_angle - fixed.bending_angle) <= 1e-4
+        assert res.shape_error(fixed)[0] <= 1e-6

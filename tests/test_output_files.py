@@ -15,7 +15,7 @@ import pytest  # noqa: E402
 import dr  # noqa: E402
 from results import CellBlock, atomic_write_text, save_result, write_pvd, write_vtu  # noqa: E402
 from validation.cli import main  # noqa: E402
-from validation.figures import _save  # noqa: E402
+from validation.plotting import save_figure  # noqa: E402
 from validation.study import write_table  # noqa: E402
 from validation.tables import write_csv  # noqa: E402
 
@@ -55,7 +55,7 @@ def _write_every_kind(folder) -> list:
         write_pvd(folder / "s.pvd", [(1.1, vtu)]),
         save_result(folder / "state.npz", res),
         res.write_vtk(folder / "state.vtu"),
-        _save(fig, folder / "fig.png"),
+        save_figure(fig, folder / "fig.png"),
     ]
 
 

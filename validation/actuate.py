@@ -20,6 +20,7 @@ from results import Result, atomic_write_text, write_pvd
 from scenes import Scene, SceneError
 from scenes.electric import FLAT_DEG
 
+from .document import Section, Table, to_html, to_markdown
 from .tables import format_table, write_csv
 
 PAPER_SUBSTANTIAL_V, PAPER_FLAT_V = 1000.0, 2250.0
@@ -263,8 +264,6 @@ SUMMARY = (("solver", "solver", ""), ("theta0", "angle at 0 V [deg]", ".2f"),
 def write_report(out_dir: Path, scene: Scene, runs: dict[str, Sequence[dict]],
                  figures: Sequence[Path], notes: Sequence[str]) -> dict[str, Path]:
     """``report.md`` and a self-contained ``index.html``: the section "Against the experiment"."""
-    from .report import Section, Table, to_html, to_markdown
-
     rows = []
     for solver, sweep in runs.items():
         c = characteristics(sweep)

@@ -9,7 +9,7 @@ from typing import Sequence
 import numpy as np
 
 from .actuate import PAPER_FLAT_V, PAPER_STEEP_STROKE, PAPER_SUBSTANTIAL_V, characteristics
-from .figures import _label, _save, plt
+from .plotting import label_axes, plt, save_figure
 
 COLORS = {"dr": "tab:blue", "fem": "k"}
 
@@ -38,8 +38,8 @@ def stroke_voltage(runs: dict[str, Sequence[dict]], path: Path) -> Path:
     if top:
         ax.axhline(top, color="0.6", lw=0.8, label="stroke at flat (bending angle at 0 V)")
     ax.set_title("Stroke vs voltage (the paper's Fig. 4)")
-    _label(ax, "voltage [kV]", "stroke [deg]")
-    return _save(fig, path)
+    label_axes(ax, "voltage [kV]", "stroke [deg]")
+    return save_figure(fig, path)
 
 
 def energy_stroke(runs: dict[str, Sequence[dict]], path: Path) -> Path:
@@ -61,5 +61,5 @@ def energy_stroke(runs: dict[str, Sequence[dict]], path: Path) -> Path:
         ax.axvline(s, color="tab:orange" if kind == "numerical" else "tab:green", ls=":",
                    label=f"paper: steep rise, {kind} ({s:.0f} deg)")
     ax.set_title("Energy vs stroke (the paper's Fig. 5)")
-    _label(ax, "stroke [deg]", "energy [N mm]", fontsize=6)
-    return _save(fig, path)
+    label_axes(ax, "stroke [deg]", "energy [N mm]", fontsize=6)
+    return save_figure(fig, path)

@@ -6,7 +6,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from itertools import takewhile
 from pathlib import Path
-from typing import Any
+from typing import Any, Sequence
 
 import numpy as np
 
@@ -14,9 +14,8 @@ from results import Result
 
 from fem_reference import richardson
 
-from . import experiment
 from .compare import CURVE_SAMPLES, Reference, build_reference, state_metrics
-from .experiment import Experiment
+from .extension import Study
 from .plan import NETS, Plan, Run
 from .runner import load_states, run_record
 from .sweep import not_reached
@@ -51,7 +50,7 @@ class Analysis:
     net_limits: dict[str, Reference] = field(default_factory=dict)  # the nets' own refined limits
     limits: list[dict[str, Any]] = field(default_factory=list)  # DR's and the FEM's limits side by side
     second_states: list[dict[str, Any]] = field(default_factory=list)  # the search for other stable states
-    experiment: Experiment | None = None  # the voltage runs (validation.experiment)
+    studies: dict[str, Any] = field(default_factory=dict)  # each study's numbers by its name (validation.extension)
     stale: list[str] = field(default_factory=list)  # complete runs made with another scene, settings or code
 
     @property
@@ -79,10 +78,35 @@ class Analysis:
         return [r.label for r in self.plan.runs if not self.records.get(r.label, {}).get("complete")]
 
 
-def analyse(plan: Plan, out_dir: Path) -> Analysis:
-    """Read every run of ``plan`` from ``out_dir`` and compute the report's tables."""
+def analyse(plan: Plan, out_dir: Path, *, studies: Sequence[Study] = ()) -> Analysis:
+    """Read every run of ``plan`` from ``out_dir`` and compute the report's tables, and each
+    study's numbers (:class:`validation.extension.Study`; a study with nothing to report is left out)."""
     states = {r.label: load_states(out_dir / "runs" / r.label, r.prestretches) for r in plan.runs if not r.voltages}
     records = {r.label: run_record(out_dir / "runs" / r.label) or {} for r in plan.runs}
+    references, branch_rows = fem_references(plan, states)
+    dr_limits = dr_references(plan, states)
+    a = Analysis(plan, states, records, references, dr_limits, branch_rows=branch_rows)
+    a.first_contact = first_contact(plan, states)
+    _state_rows(a)
+    _headline(a)
+    _speed(a)
+    _budget(a)
+    _hard(a)
+    _reference_rows(a)
+    _level_costs(a)
+    _limits(a)
+    _second_states(a)
+    for study in studies:
+        numbers = study.analyse(plan, out_dir)
+        if numbers is not None:
+            a.studies[study.name] = numbers
+    return a
+
+
+def fem_references(plan: Plan, states: dict[str, dict[float, Result]]
+                   ) -> tuple[dict[float, Reference], list[dict[str, Any]]]:
+    """The FEM reference per pre-stretch, extrapolated over the levels on one branch, and the
+    branch check of every level (:func:`branch_check`)."""
     references = {}
     branch_rows = []
     for lam in plan.sweep:
@@ -95,8 +119,12 @@ def analyse(plan: Plan, out_dir: Path) -> Analysis:
         ref = build_reference(plan.reference_levels, levels)
         if ref is not None:
             references[lam] = ref
-    # DR's own refined limit: the matched model on meshes doubling in density at its tightest
-    # tolerance (the drconv runs), extrapolated as the FEM's levels are
+    return references, branch_rows
+
+
+def dr_references(plan: Plan, states: dict[str, dict[float, Result]]) -> dict[float, Reference]:
+    """DR's own refined limit per pre-stretch: the matched model on meshes doubling in density
+    at its tightest tolerance (the drconv runs), extrapolated as the FEM's levels are."""
     drconv = plan.by_group("drconv")
     dr_limits = {}
     for lam in plan.sweep:
@@ -105,19 +133,7 @@ def analyse(plan: Plan, out_dir: Path) -> Analysis:
         dr_ref = build_reference(tuple(range(len(dr_states))), dr_states)
         if dr_ref is not None:
             dr_limits[lam] = dr_ref
-    a = Analysis(plan, states, records, references, dr_limits, branch_rows=branch_rows)
-    a.first_contact = first_contact(plan, states)
-    _state_rows(a)
-    _headline(a)
-    _speed(a)
-    _budget(a)
-    _hard(a)
-    _reference_rows(a)
-    _level_costs(a)
-    _limits(a)
-    _second_states(a)
-    a.experiment = experiment.analyse(plan, out_dir)
-    return a
+    return dr_limits
 
 
 def _speed_label(n: int, tol: float) -> str:

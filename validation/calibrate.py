@@ -14,7 +14,7 @@ modulus and pre-stretch, which also set the shape at 0 V; so the fit is done in 
    numerical 150 % state that matched the physical sample). Every law's energy is linear in its
    modulus (film: membrane.E; frame: frame.E through EA, EI, GJ), so at 0 V the equilibria depend
    on the two moduli only through their ratio: scaling frame.E as membrane.E keeps the shape
-   exactly (it was found so by brentq on FEM solves before: 289 MPa for the exact 289.1). The
+   exactly (a brentq root search for frame.E on FEM solves lands on it too: 289 MPa for the exact 289.1). The
    check sweep measures the kept angle as a residual.
 
 The fitted scene is then checked by a FEM voltage sweep: its flattening voltage and stroke at

@@ -47,7 +47,7 @@ class Reference:
 
     def shape_error(self, res: Result) -> tuple[float, float]:
         """RMS and max frame distance of ``res`` to the reference at equal arc length, / side."""
-        x, s, length = res._frame()
+        x, s, length = res.frame_arc()
         return metrics.shape_error(x, s, self.curve, self.s, length, self.side, CURVE_SAMPLES)
 
     @property

@@ -1,7 +1,8 @@
 """The validation report's "Against the experiment": voltage sweeps of the strip DEMES with
 Table I's values and calibrated, beside the paper's observations (docs/actuation.md).
 
-The runs are part of the validation plan (group 'experiment', :func:`experiment_runs`) and are
+The study plugs into ``demes validate`` as :data:`STUDY` (:class:`validation.extension.Study`):
+its runs are part of the validation plan (group 'experiment', :func:`experiment_runs`) and are
 executed by :mod:`validation.runner` through :func:`execute`: a voltage run is one warm-started
 path (:func:`validation.actuate.voltage_states`), so an interrupted one is redone whole, and a
 complete one is kept. The calibrated run first fits ``membrane.E`` and ``frame.E``
@@ -21,9 +22,17 @@ import numpy as np
 from results import Result, atomic_write_text, level_label, load_result, save_result, write_pvd
 from scenes import Scene
 
-from .actuate import (EXPERIMENT, PAPER_FLAT_V, PAPER_STEEP_STROKE, PAPER_SUBSTANTIAL_V, characteristics, compare,
-                      row, voltage_states)
-from .calibrate import CHECK_VOLTAGES, describe, fit, flattening_voltage, residuals
+from .actuate import (EXPERIMENT, PAPER_FLAT_V, PAPER_STEEP_STROKE, PAPER_SUBSTANTIAL_V, UNITS, characteristics,
+                      compare, row, voltage_states)
+from .actuation_figures import energy_stroke, stroke_voltage
+from .calibrate import CHECK_VOLTAGES, Calibration, describe, fit, flattening_voltage, residuals
+from .document import Section, Table
+from .extension import Study
+from .plan import MATCHED, REFERENCE, Plan, Run
+from .tables import write_csv
+
+GROUP = "experiment"
+"""The plan's group of the voltage runs."""
 
 CALIBRATION = "calibration.json"
 """File of a calibrated run's fit, beside its states."""
@@ -37,20 +46,18 @@ QUICK_MESH = {"mesh.divisions": 6}
 """The quick plan's experiment runs: a coarse mesh (at 4 divisions the FEM and DR angles differ by 360 deg)."""
 
 
-def experiment_runs(coarse: dict[str, Any], quick: bool) -> list:
+def experiment_runs(*, coarse: dict[str, Any], quick: bool) -> list[Run]:
     """The plan's voltage runs: FEM and matched DR with Table I's values (flat near 6.75 kV),
     the FEM calibrated to the experiment (flat at 2.25 kV)."""
-    from .plan import MATCHED, REFERENCE, Run
-
     mesh = QUICK_MESH if quick else coarse
     table = _grid(7000.0, 1000.0 if quick else 500.0)
     calibrated = _grid(3000.0, 500.0) if quick else CHECK_VOLTAGES
     return [
-        Run("exp_fem_table1", "fem", {**mesh, **REFERENCE}, group="experiment", voltages=table,
+        Run("exp_fem_table1", "fem", {**mesh, **REFERENCE}, group=GROUP, voltages=table,
             title="FEM, strip frame, Table I"),
-        Run("exp_dr_table1", "dr", {**mesh, **MATCHED}, group="experiment", voltages=table,
+        Run("exp_dr_table1", "dr", {**mesh, **MATCHED}, group=GROUP, voltages=table,
             title="DR matched (triangles), strip frame, Table I"),
-        Run("exp_fem_calibrated", "fem", {**mesh, **REFERENCE}, group="experiment", voltages=calibrated,
+        Run("exp_fem_calibrated", "fem", {**mesh, **REFERENCE}, group=GROUP, voltages=calibrated,
             calibrate=True, title="FEM, strip frame, calibrated (membrane.E, frame.E)"),
     ]
 
@@ -59,7 +66,7 @@ def _state_file(run_dir: Path, voltage: float) -> Path:
     return run_dir / f"{level_label(voltage)}V.npz"
 
 
-def execute(run, scene: Scene, run_dir: Path) -> dict[float, Result]:
+def execute(run: Run, scene: Scene, run_dir: Path) -> dict[float, Result]:
     """Solve one voltage run into ``run_dir`` (states by voltage, VTK series, the fit); the
     states by voltage (V)."""
     for stale in [*run_dir.glob("*V.npz"), *run_dir.glob("*.vtu"), *run_dir.glob("*.pvd")]:
@@ -94,9 +101,9 @@ def load_sweep(run_dir: Path) -> list[Result]:
     return sorted(states, key=lambda r: r.info["voltage_V"])
 
 
-def analyse(plan, out_dir: Path) -> Experiment | None:
+def analyse(plan: Plan, out_dir: Path) -> Experiment | None:
     """Read the plan's experiment runs (None if it has none)."""
-    runs = plan.by_group("experiment")
+    runs = plan.by_group(GROUP)
     if not runs:
         return None
     ex = Experiment()
@@ -140,8 +147,6 @@ LEGEND = {"exp_fem_table1": "FEM, Table I", "exp_dr_table1": "DR, Table I", "exp
 
 def figures(ex: Experiment, fig_dir: Path) -> dict[str, Path]:
     """Stroke against voltage and energies against stroke, every run in one figure each."""
-    from .actuation_figures import energy_stroke, stroke_voltage
-
     runs = {LEGEND.get(label, label): rows for label, rows in ex.sweeps.items()}
     draw = dict(zip(FIGURES, (stroke_voltage, energy_stroke)))
     return {name: draw[name](runs, fig_dir / f"{name}.png") for name in FIGURES}
@@ -149,9 +154,6 @@ def figures(ex: Experiment, fig_dir: Path) -> dict[str, Path]:
 
 def write_tables(ex: Experiment, out_dir: Path) -> dict[str, Path]:
     """``experiment.csv`` (every state of every sweep) and ``experiment_summary.csv``."""
-    from .actuate import UNITS
-    from .tables import write_csv
-
     states = [{"run": label, **{k: v for k, v in r.items() if k != "message"}}
               for label, rows in ex.sweeps.items() for r in rows]
     units = {**UNITS, "theta0": "deg", "stroke_at_1kV": "deg", "flat_voltage": "V", "flat_closed_form": "V",
@@ -177,11 +179,8 @@ def findings(ex: Experiment) -> list[str]:
     return out
 
 
-def section(ex: Experiment, figs: dict[str, Path | None]):
+def section(ex: Experiment, figs: dict[str, Path | None]) -> Section:
     """The report section "Against the experiment" (figures by the names of :data:`FIGURES`)."""
-    from .calibrate import Calibration
-    from .report import Section, Table
-
     parts: list[Any] = [
         EXPERIMENT,
         "Voltage sweeps of the strip DEMES at the scene's pre-stretch, each warm-started from the 0 V "
@@ -198,3 +197,8 @@ def section(ex: Experiment, figs: dict[str, Path | None]):
         parts.append("Calibration: " + "; ".join(line.strip() for line in describe(cal).splitlines()))
     parts += [figs[name] for name in FIGURES if figs.get(name) is not None]
     return Section("Against the experiment", parts)
+
+
+STUDY = Study(name="experiment", group=GROUP, runs=experiment_runs, execute=execute, analyse=analyse,
+              figures=figures, tables=write_tables, section=section)
+"""The voltage runs against the experiment, as ``demes validate`` plugs them in."""

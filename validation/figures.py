@@ -4,17 +4,13 @@ from __future__ import annotations
 
 import sys
 from pathlib import Path
-from typing import Any
 
-import matplotlib
+import numpy as np
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
+from results import atomic_write, render
 
-from results import atomic_write, render  # noqa: E402
-
-from .analysis import THRESHOLDS, Analysis  # noqa: E402
+from .analysis import THRESHOLDS, Analysis
+from .plotting import label_axes, plt, save_figure
 
 STYLE = {
     "dr_paper": dict(color="tab:red", marker="s", label="DR, paper's model (clustered, Table I frame)"),
@@ -22,25 +18,6 @@ STYLE = {
     "dr_clustered_strip": dict(color="tab:purple", marker="^", label="DR, clustered net, strip"),
     "reference": dict(color="k", marker="D", label="FEM reference (extrapolated)"),
 }
-
-
-def _label(ax: Any, xlabel: str, ylabel: str, fontsize: int = 7, **legend: Any) -> None:
-    """Axis titles, a light grid (minor lines too on log axes) and the legend."""
-    ax.set_xlabel(xlabel)
-    ax.set_ylabel(ylabel)
-    ax.grid(alpha=0.3, which="both")
-    ax.legend(fontsize=fontsize, **legend)
-
-
-def _save(fig, path: Path) -> Path:
-    def write(tmp: Path) -> None:
-        fig.savefig(tmp, dpi=110, bbox_inches="tight", format="png")
-
-    try:
-        return atomic_write(path, write)
-    finally:
-        plt.close(fig)
-    return path
 
 
 def bending_angle(a: Analysis, path: Path) -> Path:
@@ -64,8 +41,8 @@ def bending_angle(a: Analysis, path: Path) -> Path:
         ax.errorbar(lam, [r.values["bending_angle"] for _, r in refs], yerr=[r.errors["bending_angle"] for _, r in refs],
                     fmt="D-", color="k", ms=4, label=STYLE["reference"]["label"])
     ax.set_title("Bending angle vs pre-stretch (open markers: stopped states)")
-    _label(ax, "pre-stretch ratio [-]", "bending angle [deg]")
-    return _save(fig, path)
+    label_axes(ax, "pre-stretch ratio [-]", "bending angle [deg]")
+    return save_figure(fig, path)
 
 
 def energy_stroke(a: Analysis, path: Path) -> Path:
@@ -97,8 +74,8 @@ def energy_stroke(a: Analysis, path: Path) -> Path:
     axes[0].set_title("Total strain energy vs stroke (exact)")
     axes[1].set_title("Energy split: membrane (solid) and frame (dashed)")
     for ax in axes:
-        _label(ax, "stroke [deg] (from the most bent converged state)", "energy [N mm]", fontsize=6)
-    return _save(fig, path)
+        label_axes(ax, "stroke [deg] (from the most bent converged state)", "energy [N mm]", fontsize=6)
+    return save_figure(fig, path)
 
 
 def convergence(a: Analysis, path: Path) -> Path:
@@ -107,7 +84,7 @@ def convergence(a: Analysis, path: Path) -> Path:
     for lam, ref in sorted(a.references.items()):
         axes[0].plot(ref.levels, ref.level_values["bending_angle"], "o-", label=f"lambda {lam:g}")
         axes[0].axhline(ref.values["bending_angle"], color=axes[0].lines[-1].get_color(), ls=":", lw=0.8)
-    _label(axes[0], "FEM refinement level (element size / 2^k)", "bending angle [deg] (dotted: extrapolated)",
+    label_axes(axes[0], "FEM refinement level (element size / 2^k)", "bending angle [deg] (dotted: extrapolated)",
            fontsize=6, ncol=2)
     rows = [r for r in a.budget if r["kind"] == "discretisation" and np.isfinite(r["shape_rms"]) and r["shape_rms"] > 0]
     fem = [(2.0 ** -int(r["what"].split("refinement ")[1].split()[0]), r["shape_rms"]) for r in rows if r["what"].startswith("FEM refinement")]
@@ -121,8 +98,8 @@ def convergence(a: Analysis, path: Path) -> Path:
         h = np.array([0.25, 1.0])
         axes[1].loglog(h, 0.5 * max(e for _, e in fem + dr) * h**2, "k:", lw=0.8, label="slope 2")
     axes[1].set_title(f"Discretisation error at lambda {a.plan.speed_prestretch:g}")
-    _label(axes[1], "relative element size h / h_coarsest", "frame-curve RMS error / side")
-    return _save(fig, path)
+    label_axes(axes[1], "relative element size h / h_coarsest", "frame-curve RMS error / side")
+    return save_figure(fig, path)
 
 
 def pareto(a: Analysis, path: Path) -> Path:
@@ -139,8 +116,8 @@ def pareto(a: Analysis, path: Path) -> Path:
     for t in THRESHOLDS:
         ax.axvline(t, color="0.6", ls="--", lw=0.8)
     ax.set_title(f"Speed against error at lambda {a.plan.speed_prestretch:g}")
-    _label(ax, "frame-curve RMS error / side (to the extrapolated FEM reference)", "wall time [s]")
-    return _save(fig, path)
+    label_axes(ax, "frame-curve RMS error / side (to the extrapolated FEM reference)", "wall time [s]")
+    return save_figure(fig, path)
 
 
 def frame_curves(a: Analysis, path: Path) -> Path:
@@ -163,7 +140,7 @@ def frame_curves(a: Analysis, path: Path) -> Path:
         ax.set_aspect("equal")
         ax.grid(alpha=0.3)
     axes[0].set_ylabel("z [mm]")
-    return _save(fig, path)
+    return save_figure(fig, path)
 
 
 def renders(a: Analysis, lam: float, path: Path) -> Path | None:

@@ -91,99 +91,141 @@ def _levels(lo: float, hi: float, step: float) -> tuple[float, ...]:
     return tuple(float(v) for v in np.round(np.arange(lo, hi + step / 2, step), 6))
 
 
-def build_plan(quick: bool = False) -> Plan:
-    """The full plan (100-200 % in 10 % steps, FEM P2 levels r0-r2, r3 at 160-170 %), or the quick one.
+@dataclass(frozen=True)
+class Settings:
+    """What the full and the quick plan differ in."""
 
-    The quick plan is the same study on a coarse mesh and three pre-stretch levels, so that
-    every table and figure of the report is produced in under two minutes.
-    """
+    quick: bool
+    sweep: tuple[float, ...]  # the main comparison's pre-stretch levels
+    coarse: dict[str, Any]  # scene changes of the runs on the scene's own mesh
+    levels: tuple[int, ...]  # FEM reference refinement levels
+    element: str  # the FEM reference's membrane element
+    speed_lam: float  # the pre-stretch of the speed study and the error budget
+    dr_meshes: tuple[int, ...]  # DR mesh densities of the speed study
+    dr_tols: tuple[float, ...]  # DR tolerances of the speed study
+    hard_lams: tuple[float, ...]  # pre-stretches of the hard cases
+    second_lams: tuple[float, ...]  # pre-stretches of the search for second stable states
+
+    @property
+    def fem_study(self) -> dict[str, Any]:
+        """The FEM reference's scene changes: its own element, which the FEM runs of the error
+        budget and the speed study use too (a model-form row changes one ingredient, not the element)."""
+        return {**self.coarse, **REFERENCE, "fem.element": self.element}
+
+    @property
+    def tight(self) -> float:
+        """DR's tightest tolerance: its own refinement and the nets' are solved to it."""
+        return min(self.dr_tols)
+
+
+def settings(quick: bool) -> Settings:
+    """The full plan's settings, or the quick plan's: the same study on a coarse mesh and three
+    pre-stretch levels, so that every table and figure of the report is produced in minutes."""
     if quick:
-        sweep = (1.0, 1.15, 1.3)
-        coarse = {"mesh.divisions": 8}
-        levels = (0, 1)
-        element = "P1"  # the quick plan checks the harness, not the reference's accuracy
-        speed_lam = 1.3
-        dr_meshes, dr_tols = (4, 6, 8), (1e-4, 1e-6)
-        hard_lams = (1.0, 1.3)
-        second_lams = (1.15, 1.3)
-    else:
-        sweep = _levels(1.0, 2.0, 0.1)
-        coarse = {}
-        levels = (0, 1, 2, 3)  # r0-r2 at every pre-stretch; r1-r3 where r0-r2 are not enough
-        # quadratic triangles: measured against P1 at equal DOFs, the r0-r2 error estimate at
-        # 1.4-1.7 falls from 1.2/0.51/5.0/0.82 deg to 0.18/0.34/0.51/0.53 deg
-        element = "P2"
-        speed_lam = 1.3
-        dr_meshes, dr_tols = (10, 14, 20, 28, 40), (1e-4, 1e-5, 1e-6)
-        hard_lams = (1.0, 1.3, 1.5)
-        second_lams = _levels(1.1, 1.7, 0.1)  # below first contact (about 1.77)
-    runs: list[Run] = [
-        Run("dr_paper", "dr", {**coarse, **PAPER_DR}, sweep, title="DR as the paper built it: clustered net, isotropic frame (Table I)"),
-        Run("dr_matched", "dr", {**coarse, **MATCHED}, sweep,
+        # P1: the quick plan checks the harness, not the reference's accuracy
+        return Settings(quick=True, sweep=(1.0, 1.15, 1.3), coarse={"mesh.divisions": 8}, levels=(0, 1),
+                        element="P1", speed_lam=1.3, dr_meshes=(4, 6, 8), dr_tols=(1e-4, 1e-6),
+                        hard_lams=(1.0, 1.3), second_lams=(1.15, 1.3))
+    # levels: r0-r2 at every pre-stretch; r1-r3 where r0-r2 are not enough. Quadratic triangles:
+    # measured against P1 at equal DOFs, the r0-r2 error estimate at 1.4-1.7 falls from
+    # 1.2/0.51/5.0/0.82 deg to 0.18/0.34/0.51/0.53 deg. Second states: below first contact (about 1.77)
+    return Settings(quick=False, sweep=_levels(1.0, 2.0, 0.1), coarse={}, levels=(0, 1, 2, 3), element="P2",
+                    speed_lam=1.3, dr_meshes=(10, 14, 20, 28, 40), dr_tols=(1e-4, 1e-5, 1e-6),
+                    hard_lams=(1.0, 1.3, 1.5), second_lams=_levels(1.1, 1.7, 0.1))
+
+
+def build_plan(quick: bool = False, *, studies: Sequence[Any] = ()) -> Plan:
+    """The full plan (100-200 % in 10 % steps, FEM P2 levels r0-r2, r3 at 160-170 %), or the
+    quick one (:func:`settings`), with the runs of each study (:class:`validation.extension.Study`)."""
+    s = settings(quick)
+    runs = [*main_runs(s), *reference_runs(s), *budget_runs(s), *speed_dr_runs(s), *drconv_runs(s),
+            *netconv_runs(s), second_states_run(s), *speed_fem_runs(s), *hard_cases(s.coarse, s.hard_lams, quick)]
+    for study in studies:
+        runs += study.runs(coarse=s.coarse, quick=quick)
+    return Plan(tuple(runs), s.sweep, s.speed_lam, s.levels)
+
+
+def main_runs(s: Settings) -> list[Run]:
+    """The main comparison: DR as the paper built it and DR matched to the FEM, over the sweep."""
+    return [
+        Run("dr_paper", "dr", {**s.coarse, **PAPER_DR}, s.sweep,
+            title="DR as the paper built it: clustered net, isotropic frame (Table I)"),
+        Run("dr_matched", "dr", {**s.coarse, **MATCHED}, s.sweep,
             title="DR matched to the FEM: membrane triangles on its mesh, strip frame"),
     ]
-    # the reference's own element; the FEM runs it is compared with in the error budget and the
-    # speed study use it too (a model-form row changes one ingredient, not the element)
-    study = {**coarse, **REFERENCE, "fem.element": element}
-    # the finest level costs minutes a state: it runs only where the r0-r2 estimate misses
-    # 0.5 deg (the curl's turn at 1.6-1.7), and the reference there extrapolates r1-r3
-    finest = sweep if quick else (1.6, 1.7)
-    runs += [
-        Run(f"fem_r{k}", "fem", study, finest if k == levels[-1] else sweep, refinement=k,
-            group="reference", title=f"FEM reference, strip frame, {element}, refinement {k}")
-        for k in levels
-    ]
-    # model-form error: one ingredient changed at a time against the matched DR model, at the
-    # speed study's pre-stretch (the error budget's), each from the flat state (measured: DR
-    # matched reached 1.3 from flat in 39 s, and through 1.1 and 1.2 in 378 s)
-    runs += [
-        Run("dr_links_strip", "dr", {**coarse, **LINKS}, (speed_lam,), group="budget", cold=True,
+
+
+def reference_runs(s: Settings) -> list[Run]:
+    """The FEM reference levels. The finest level costs minutes a state: it runs only where the
+    r0-r2 estimate misses 0.5 deg (the curl's turn at 1.6-1.7), and the reference there
+    extrapolates r1-r3."""
+    finest = s.sweep if s.quick else (1.6, 1.7)
+    return [Run(f"fem_r{k}", "fem", s.fem_study, finest if k == s.levels[-1] else s.sweep, refinement=k,
+                group="reference", title=f"FEM reference, strip frame, {s.element}, refinement {k}")
+            for k in s.levels]
+
+
+def budget_runs(s: Settings) -> list[Run]:
+    """Model-form error: one ingredient changed at a time against the matched DR model, at the
+    speed study's pre-stretch (the error budget's), each from the flat state (measured: DR
+    matched reached 1.3 from flat in 39 s, and through 1.1 and 1.2 in 378 s)."""
+    lam, c, fem = (s.speed_lam,), s.coarse, s.fem_study
+    return [
+        Run("dr_links_strip", "dr", {**c, **LINKS}, lam, group="budget", cold=True,
             title="DR link net, strip frame (the paper's lattice alone)"),
-        Run("dr_clustered_strip", "dr", {**coarse, **PAPER_DR, "frame.model": "strip"}, (speed_lam,), group="budget", cold=True,
+        Run("dr_clustered_strip", "dr", {**c, **PAPER_DR, "frame.model": "strip"}, lam, group="budget", cold=True,
             title="DR clustered net, strip frame (clustering alone)"),
-        Run("dr_links_paper", "dr", {**coarse, **LINKS, "frame.model": "paper"}, (speed_lam,), group="budget", cold=True,
+        Run("dr_links_paper", "dr", {**c, **LINKS, "frame.model": "paper"}, lam, group="budget", cold=True,
             title="DR link net, isotropic frame (frame model alone)"),
-        Run("dr_matched_bt3", "dr", {**coarse, **MATCHED, "frame.I": None}, (speed_lam,), group="budget", cold=True,
+        Run("dr_matched_bt3", "dr", {**c, **MATCHED, "frame.I": None}, lam, group="budget", cold=True,
             title="DR matched, weak-axis I = b t^3/12 instead of Table I's 0.0003 mm^4"),
-        Run("fem_paper_r0", "fem", {**study, "frame.model": "paper"}, (speed_lam,), group="budget", cold=True,
+        Run("fem_paper_r0", "fem", {**fem, "frame.model": "paper"}, lam, group="budget", cold=True,
             title="FEM, isotropic frame (Table I), refinement 0"),
-        Run("fem_bt3_r0", "fem", {**study, "frame.I": None}, (speed_lam,), group="budget", cold=True,
+        Run("fem_bt3_r0", "fem", {**fem, "frame.I": None}, lam, group="budget", cold=True,
             title="FEM, weak-axis I = b t^3/12, refinement 0"),
-        Run("fem_film_r0", "fem", {**study, "frame.film_offset": True}, (speed_lam,), group="budget", cold=True,
+        Run("fem_film_r0", "fem", {**fem, "frame.film_offset": True}, lam, group="budget", cold=True,
             title="FEM, film bonded on the strip's top face, refinement 0"),
     ]
-    # speed against error: DR over mesh density and tolerance, each state from scratch
-    for n in dr_meshes:
-        for tol in dr_tols:
-            runs.append(Run(f"speed_dr_n{n}_tol{tol:.0e}", "dr", {**MATCHED, "mesh.divisions": n, "dr.tolerance": tol},
-                            (speed_lam,), group="speed", title=f"DR matched, {n} divisions, tol {tol:.0e}", cold=True))
-    # DR's own refinement over the whole sweep: its limit beside the FEM's at every pre-stretch.
-    # A third level (40 divisions: 5 min a state) runs only at the speed study's pre-stretch,
-    # where the limit then has its observed order; elsewhere two levels, with the formal one
-    tight = min(dr_tols)
-    chain = doubling_chain(dr_meshes)
-    runs += [Run(f"drconv_n{n}", "dr", {**MATCHED, "mesh.divisions": n, "dr.tolerance": tight},
-                 (speed_lam,) if i >= 2 else sweep, group="drconv", title=f"DR matched, {n} divisions, tol {tight:.0e}")
-             for i, n in enumerate(chain)]
-    # the paper's nets refined by the same doubling of the mesh: their own limits, so that the
-    # model-form rows compare limits, not two discretisation errors
-    for n in chain:
-        for net, variant in NETS.items():
-            runs.append(Run(f"netconv_{net}_n{n}", "dr", {**variant, "mesh.divisions": n, "dr.tolerance": tight},
-                            (speed_lam,), group="netconv", title=f"DR {net} net, strip frame, {n} divisions"))
-    # other stable states: the pre-stretch applied at once from flat (the paper's way; its
-    # transient can land off the quasi-static path), each state polished and checked by the FEM
-    runs.append(Run("second_states", "dr", {**coarse, **MATCHED, "dr.prestretch_step": 0.0, "dr.tolerance": tight},
-                    second_lams, group="second", cold=True, polish=True,
-                    title="DR matched, pre-stretch at once from flat, polished by the FEM (r0)"))
-    for k in levels[:3]:  # from the flat state each time: r3 would add minutes for one point
-        runs.append(Run(f"speed_fem_r{k}", "fem", study, (speed_lam,), refinement=k, group="speed",
-                        title=f"FEM, {element}, refinement {k}", cold=True))
-    runs += hard_cases(coarse, hard_lams, quick)
-    from .experiment import experiment_runs  # it builds Runs: imported here, not at the top
 
-    runs += experiment_runs(coarse, quick)
-    return Plan(tuple(runs), sweep, speed_lam, levels)
+
+def speed_dr_runs(s: Settings) -> list[Run]:
+    """Speed against error: DR over mesh density and tolerance, each state from scratch."""
+    return [Run(f"speed_dr_n{n}_tol{tol:.0e}", "dr", {**MATCHED, "mesh.divisions": n, "dr.tolerance": tol},
+                (s.speed_lam,), group="speed", title=f"DR matched, {n} divisions, tol {tol:.0e}", cold=True)
+            for n in s.dr_meshes for tol in s.dr_tols]
+
+
+def drconv_runs(s: Settings) -> list[Run]:
+    """DR's own refinement over the whole sweep: its limit beside the FEM's at every pre-stretch.
+    A third level (40 divisions: 5 min a state) runs only at the speed study's pre-stretch,
+    where the limit then has its observed order; elsewhere two levels, with the formal one."""
+    return [Run(f"drconv_n{n}", "dr", {**MATCHED, "mesh.divisions": n, "dr.tolerance": s.tight},
+                (s.speed_lam,) if i >= 2 else s.sweep, group="drconv", title=f"DR matched, {n} divisions, tol {s.tight:.0e}")
+            for i, n in enumerate(doubling_chain(s.dr_meshes))]
+
+
+def netconv_runs(s: Settings) -> list[Run]:
+    """The paper's nets refined by the same doubling of the mesh: their own limits, so that the
+    model-form rows compare limits, not two discretisation errors."""
+    return [Run(f"netconv_{net}_n{n}", "dr", {**variant, "mesh.divisions": n, "dr.tolerance": s.tight},
+                (s.speed_lam,), group="netconv", title=f"DR {net} net, strip frame, {n} divisions")
+            for n in doubling_chain(s.dr_meshes) for net, variant in NETS.items()]
+
+
+def second_states_run(s: Settings) -> Run:
+    """Other stable states: the pre-stretch applied at once from flat (the paper's way; its
+    transient can land off the quasi-static path), each state polished and checked by the FEM."""
+    return Run("second_states", "dr", {**s.coarse, **MATCHED, "dr.prestretch_step": 0.0, "dr.tolerance": s.tight},
+               s.second_lams, group="second", cold=True, polish=True,
+               title="DR matched, pre-stretch at once from flat, polished by the FEM (r0)")
+
+
+def speed_fem_runs(s: Settings) -> list[Run]:
+    """The FEM in the speed study, from the flat state each time, up to r2 (r3 would add
+    minutes for one point)."""
+    return [Run(f"speed_fem_r{k}", "fem", s.fem_study, (s.speed_lam,), refinement=k, group="speed",
+                title=f"FEM, {s.element}, refinement {k}", cold=True)
+            for k in s.levels[:3]]
 
 
 def doubling_chain(meshes: Sequence[int]) -> list[int]:

@@ -1,81 +1,25 @@
 """The validation report: report.md, a self-contained index.html, and CSV/JSON of every number.
 
-One document (sections of paragraphs, tables and figures) is rendered twice, as Markdown and
-as HTML with the figures inline, so the two never disagree.
+The report is one document (:mod:`validation.document`) rendered as Markdown and as HTML.
 """
 
 from __future__ import annotations
 
-import base64
-import html
 import json
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Sequence
+from typing import Any, Callable, Sequence
 
 import numpy as np
 
 from results import ENERGY_DEFINITION, atomic_write_text, level_label
 
-from . import experiment
 from .analysis import BRANCH_JUMP, SECOND_STATE, THRESHOLDS, Analysis
 from .beam_energy import mismatch_sentence
 from .compare import METRIC_UNITS
-from .tables import format_cell, write_csv
-
-
-@dataclass
-class Table:
-    columns: Sequence[tuple[str, str, str]]  # (key, title with unit, format spec)
-    rows: Sequence[dict[str, Any]]
-
-
-@dataclass
-class Section:
-    title: str
-    parts: list[Any] = field(default_factory=list)  # str paragraphs, Table, or Path (figure)
-
-
-def to_markdown(sections: Sequence[Section], title: str, base: Path) -> str:
-    out = [f"# {title}", ""]
-    for sec in sections:
-        out += [f"## {sec.title}", ""]
-        for part in sec.parts:
-            if isinstance(part, str):
-                out += [part, ""]
-            elif isinstance(part, Table):
-                out.append("| " + " | ".join(t for _, t, _ in part.columns) + " |")
-                out.append("|" + "---|" * len(part.columns))
-                for r in part.rows:
-                    out.append("| " + " | ".join(format_cell(r.get(k), f) for k, _, f in part.columns) + " |")
-                out.append("")
-            elif isinstance(part, Path):
-                out += [f"![{part.stem}]({part.relative_to(base).as_posix()})", ""]
-    return "\n".join(out)
-
-
-def to_html(sections: Sequence[Section], title: str) -> str:
-    css = ("body{font-family:sans-serif;max-width:1100px;margin:2em auto;color:#222}"
-           "table{border-collapse:collapse;font-size:12px;margin:0.5em 0 1.5em}"
-           "td,th{border:1px solid #bbb;padding:2px 6px;text-align:right}th{background:#eee}"
-           "td:first-child,th:first-child{text-align:left}img{max-width:100%}")
-    out = [f"<!DOCTYPE html><html><head><meta charset='utf-8'><title>{html.escape(title)}</title>",
-           f"<style>{css}</style></head><body><h1>{html.escape(title)}</h1>"]
-    for sec in sections:
-        out.append(f"<h2>{html.escape(sec.title)}</h2>")
-        for part in sec.parts:
-            if isinstance(part, str):
-                out.append(f"<p>{html.escape(part)}</p>")
-            elif isinstance(part, Table):
-                out.append("<table><tr>" + "".join(f"<th>{html.escape(t)}</th>" for _, t, _ in part.columns) + "</tr>")
-                for r in part.rows:
-                    out.append("<tr>" + "".join(f"<td>{html.escape(format_cell(r.get(k), f))}</td>" for k, _, f in part.columns) + "</tr>")
-                out.append("</table>")
-            elif isinstance(part, Path) and part.exists():
-                data = base64.b64encode(part.read_bytes()).decode()
-                out.append(f"<p><img alt='{html.escape(part.stem)}' src='data:image/png;base64,{data}'></p>")
-    out.append("</body></html>")
-    return "\n".join(out)
+from .document import Section, Table, to_html, to_markdown
+from .extension import Study
+from .tables import write_csv
 
 
 HEADLINE = (
@@ -273,101 +217,181 @@ def _findings(a: Analysis) -> list[str]:
     return out
 
 
-def write_report(a: Analysis, out_dir: Path, figures: dict[str, Path | None], title: str) -> dict[str, Path]:
-    """Write report.md, index.html and the CSV/JSON tables; returns their paths."""
-    units = {**METRIC_UNITS, "shape_error": "-", "time_dr": "s", "time_fem": "s", "wall_time": "s",
-             "theta_fem": "deg", "theta_fem_error": "deg", "theta_matched": "deg", "theta_paper": "deg",
-             "bending_angle_diff_vs_fem": "deg", "shape_rms_vs_fem": "-", "time_matched": "s", "time_paper": "s",
-             "time_fem_finest": "s", "bending_angle_error": "deg", "apex_y_error": "mm", "apex_z_error": "mm",
-             "energy_total_error": "N mm", "shape_uncertainty": "-", "time_per_state": "s", "time_total": "s",
-             "theta_dr": "deg", "theta_dr_error": "deg", "theta_diff": "deg", "shape_distance": "-",
-             "theta_path": "deg", "theta_found": "deg", "theta_dr_at_once": "deg", "energy_path": "N mm",
-             "energy_found": "N mm", "energy_gap": "N mm", "lowest_eigenvalue": "N/mm^3"}
-    files = {
-        "states": write_csv(out_dir / "states.csv", a.state_rows, units=units),
-        "headline": write_csv(out_dir / "headline.csv", a.headline, units=units),
-        "speed": write_csv(out_dir / "speed.csv", a.speed_rows, units=units),
-        "reach": write_csv(out_dir / "time_to_error.csv", a.reach, units=units),
-        "budget": write_csv(out_dir / "error_budget.csv", a.budget, units=units),
-        "hard": write_csv(out_dir / "hard_cases.csv", a.hard, units=units),
-        "reference": write_csv(out_dir / "reference.csv", a.reference_rows, units=units),
-        "branches": write_csv(out_dir / "branches.csv", a.branch_rows, units=units),
-        "first_contact": write_csv(out_dir / "first_contact.csv", a.first_contact, units=units),
-        "reference_table": write_csv(out_dir / "reference_table.csv", a.reference_table, units=units),
-        "level_costs": write_csv(out_dir / "fem_levels.csv", a.level_costs, units=units),
-        "limits": write_csv(out_dir / "limits.csv", a.limits, units=units),
-        "second_states": write_csv(out_dir / "second_states.csv", a.second_states, units=units),
-    }
-    everything = {"headline": a.headline, "speed": a.speed_rows, "time_to_error": a.reach, "error_budget": a.budget,
-                  "hard_cases": a.hard, "reference": a.reference_rows, "branches": a.branch_rows,
-                  "first_contact": a.first_contact, "reference_table": a.reference_table,
-                  "fem_levels": a.level_costs, "limits": a.limits, "second_states": a.second_states,
-                  "states": a.state_rows,
-                  "runs": a.records, "units": units}
+UNITS = {**METRIC_UNITS, "shape_error": "-", "time_dr": "s", "time_fem": "s", "wall_time": "s",
+         "theta_fem": "deg", "theta_fem_error": "deg", "theta_matched": "deg", "theta_paper": "deg",
+         "bending_angle_diff_vs_fem": "deg", "shape_rms_vs_fem": "-", "time_matched": "s", "time_paper": "s",
+         "time_fem_finest": "s", "bending_angle_error": "deg", "apex_y_error": "mm", "apex_z_error": "mm",
+         "energy_total_error": "N mm", "shape_uncertainty": "-", "time_per_state": "s", "time_total": "s",
+         "theta_dr": "deg", "theta_dr_error": "deg", "theta_diff": "deg", "shape_distance": "-",
+         "theta_path": "deg", "theta_found": "deg", "theta_dr_at_once": "deg", "energy_path": "N mm",
+         "energy_found": "N mm", "energy_gap": "N mm", "lowest_eigenvalue": "N/mm^3"}
+"""The unit of every column of the report's tables (CSV headers, metrics.json)."""
+
+
+@dataclass(frozen=True)
+class DataTable:
+    """A table of the report's numbers: written as ``<name>.csv`` and as ``metrics.json[name]``,
+    its rows the :class:`Analysis` field ``rows``."""
+
+    name: str
+    rows: str
+
+
+DATA_TABLES = (
+    DataTable("headline", "headline"),
+    DataTable("speed", "speed_rows"),
+    DataTable("time_to_error", "reach"),
+    DataTable("error_budget", "budget"),
+    DataTable("hard_cases", "hard"),
+    DataTable("reference", "reference_rows"),
+    DataTable("branches", "branch_rows"),
+    DataTable("first_contact", "first_contact"),
+    DataTable("reference_table", "reference_table"),
+    DataTable("fem_levels", "level_costs"),
+    DataTable("limits", "limits"),
+    DataTable("second_states", "second_states"),
+    DataTable("states", "state_rows"),
+)
+"""Every table of numbers the report writes, in the order of metrics.json."""
+
+
+def write_report(a: Analysis, out_dir: Path, figures: dict[str, Path | None], title: str, *,
+                 studies: Sequence[Study] = ()) -> dict[str, Path]:
+    """Write report.md, index.html and the CSV/JSON tables, each study's tables and section
+    after the validation's own (:class:`validation.extension.Study`); returns their paths."""
+    files = write_tables(a, out_dir)
+    sections = [build(a, figures) for build in SECTIONS]
+    for study in studies:
+        if study.name in a.studies:
+            files.update(study.tables(a.studies[study.name], out_dir))
+            sections.append(study.section(a.studies[study.name], figures))
+    files.update(write_document(sections, title, out_dir))
+    return files
+
+
+def write_tables(a: Analysis, out_dir: Path) -> dict[str, Path]:
+    """The tables of :data:`DATA_TABLES` as CSV files, and all of them (with the run records and
+    the units) in metrics.json; their paths by table name, metrics.json as 'json'."""
+    tables = {t.name: getattr(a, t.rows) for t in DATA_TABLES}
+    files = {name: write_csv(out_dir / f"{name}.csv", rows, units=UNITS) for name, rows in tables.items()}
+    everything = {**tables, "runs": a.records, "units": UNITS}
     files["json"] = atomic_write_text(out_dir / "metrics.json", json.dumps(_plain(everything), indent=1))
-    lam = a.plan.speed_prestretch
-    sections = [
-        Section("Findings", _findings(a)),
-        Section("Bending angle and shape against the FEM reference", [
-            "Shape error: RMS and max distance between frame curves at equal reference arc length, divided by the side "
-            "length, against the FEM state extrapolated from its refinement levels (Richardson; error estimates from the "
-            "grid convergence index: with three levels the observed order and a factor 1.25, with two the formal order 2 "
-            "and a factor 3). Statuses other than 'converged' are the named stops of the solver.",
-            Table(HEADLINE, a.headline), figures.get("bending_angle"), figures.get("frame_curves")]),
-        Section("One discrete problem, two limits", [
-            "DR on the FEM's own discrete problem (membrane triangles, the same rod, bond and supports), refined over "
-            "meshes doubling in density at its tightest tolerance and extrapolated as the FEM's levels are: if both "
-            "solvers minimise the same energy, the two limits agree within their error estimates.",
-            Table(LIMITS, a.limits)]),
-        Section("Reference levels: branches and first contact", [
-            "The FEM reference per pre-stretch: values extrapolated over the levels listed (the last three give the "
-            "observed order; '-' where it was outside 0.5-4 and the formal order 2 was used), each with its error "
-            "estimate.", Table(REFERENCE, a.reference_table),
-            "What each level costs along the sweep (medians over its converged states, each started from the "
-            "previous one; a state's time includes the coarser levels that lead Newton to it; factorisations: sparse "
-            "Cholesky on the level's own mesh, one per Newton iteration plus one per shift tried where the tangent is "
-            "not positive definite and those of the path tangent and the stability check).", Table(LEVEL_COSTS, a.level_costs),
-            "Each FEM level follows the path of the coarsest (its states start Newton from the coarse state) and is "
-            "checked: stable (lowest eigenvalue of the tangent above zero) and converging (the frame curve moves less "
-            f"from the previous level than that one moved, within a factor {BRANCH_JUMP:g}). A level that jumped branch "
-            "or is unstable is listed here and left out of the extrapolation.", Table(BRANCH, a.branch_rows),
-            "First frame-frame or frame-film contact: the bracket each level's path found (bisection to 1e-3 in "
-            "pre-stretch) and the value extrapolated over the levels (Richardson), its error estimate plus half the "
-            "finest bracket.", Table(FIRST_CONTACT, a.first_contact)]),
-        Section("Second stable states", [
-            "The path above is one quasi-static branch. To look for others, DR applies each pre-stretch at once from "
-            "the flat state (as the paper did: the pseudo-dynamic transient can settle off the path) on the matched "
-            "model at refinement 0, and the FEM's Newton on the same mesh polishes that state and checks its stability "
-            "(lowest eigenvalue of the tangent). A polished state that is stable and more than "
-            f"{SECOND_STATE:g} of the side from the path's state is a second stable state; both are listed with their "
-            "energies. A search from one start per pre-stretch finds some other states, not all.",
-            Table(SECOND, a.second_states)]),
-        Section("Energy against stroke", [ENERGY_DEFINITION, mismatch_sentence(),
-                                          "Strain energy split into membrane and frame, against the stroke from the most "
-                                          "bent state; dotted: the membrane part by the paper's formula.",
-                                          figures.get("energy_stroke")]),
-        Section("Tension field", ["Flat membrane area with at least one slack link family (a tension field: the film "
-                                  "would wrinkle) and with every family slack, per state.",
-                                  Table(SLACK, [r for r in a.state_rows if r.get("group") in ("sweep", "reference")])]),
-        Section(f"Speed against error (lambda = {lam:g})", [
-            "Each state solved from scratch; DR over mesh density and tolerance, the FEM over refinement levels "
-            "(continuation from the flat state included in its time).",
-            Table(SPEED, a.speed_rows), Table(REACH, a.reach), figures.get("pareto")]),
-        Section(f"Error budget (lambda = {lam:g})", [
-            "Discretisation error of each model against its own refined limit, model-form differences (one ingredient "
-            "at a time), and the solver tolerance.", Table(BUDGET, a.budget), figures.get("convergence")]),
-        Section("Hard cases", [Table(HARD, a.hard)]),
-        Section("Shapes", ["DR and FEM states rendered top, side and perspective (the paper's Fig. 3 views); "
-                           "ParaView series: runs/<run>/<run>.pvd.", figures.get("renders")]),
-    ]
-    if a.experiment is not None:
-        files.update(experiment.write_tables(a.experiment, out_dir))
-        sections.append(experiment.section(a.experiment, figures))
+    return files
+
+
+def write_document(sections: list[Section], title: str, out_dir: Path) -> dict[str, Path]:
+    """report.md and index.html of ``sections`` (figures that were not drawn left out)."""
     for sec in sections:
         sec.parts = [p for p in sec.parts if p is not None]
-    files["md"] = atomic_write_text(out_dir / "report.md", to_markdown(sections, title, out_dir))
-    files["html"] = atomic_write_text(out_dir / "index.html", to_html(sections, title))
-    return files
+    return {"md": atomic_write_text(out_dir / "report.md", to_markdown(sections, title, out_dir)),
+            "html": atomic_write_text(out_dir / "index.html", to_html(sections, title))}
+
+
+def _findings_section(a: Analysis, figures: dict[str, Path | None]) -> Section:
+    """The measured outcomes in sentences."""
+    return Section("Findings", _findings(a))
+
+
+def _shape_section(a: Analysis, figures: dict[str, Path | None]) -> Section:
+    """Bending angle and shape of the DR models against the FEM reference."""
+    return Section("Bending angle and shape against the FEM reference", [
+        "Shape error: RMS and max distance between frame curves at equal reference arc length, divided by the side "
+        "length, against the FEM state extrapolated from its refinement levels (Richardson; error estimates from the "
+        "grid convergence index: with three levels the observed order and a factor 1.25, with two the formal order 2 "
+        "and a factor 3). Statuses other than 'converged' are the named stops of the solver.",
+        Table(HEADLINE, a.headline), figures.get("bending_angle"), figures.get("frame_curves")])
+
+
+def _limits_section(a: Analysis, figures: dict[str, Path | None]) -> Section:
+    """DR and the FEM refined on one discrete problem: their limits side by side."""
+    return Section("One discrete problem, two limits", [
+        "DR on the FEM's own discrete problem (membrane triangles, the same rod, bond and supports), refined over "
+        "meshes doubling in density at its tightest tolerance and extrapolated as the FEM's levels are: if both "
+        "solvers minimise the same energy, the two limits agree within their error estimates.",
+        Table(LIMITS, a.limits)])
+
+
+def _reference_levels_section(a: Analysis, figures: dict[str, Path | None]) -> Section:
+    """The FEM reference levels: extrapolation, cost, branch check and first contact."""
+    return Section("Reference levels: branches and first contact", [
+        "The FEM reference per pre-stretch: values extrapolated over the levels listed (the last three give the "
+        "observed order; '-' where it was outside 0.5-4 and the formal order 2 was used), each with its error "
+        "estimate.", Table(REFERENCE, a.reference_table),
+        "What each level costs along the sweep (medians over its converged states, each started from the "
+        "previous one; a state's time includes the coarser levels that lead Newton to it; factorisations: sparse "
+        "Cholesky on the level's own mesh, one per Newton iteration plus one per shift tried where the tangent is "
+        "not positive definite and those of the path tangent and the stability check).", Table(LEVEL_COSTS, a.level_costs),
+        "Each FEM level follows the path of the coarsest (its states start Newton from the coarse state) and is "
+        "checked: stable (lowest eigenvalue of the tangent above zero) and converging (the frame curve moves less "
+        f"from the previous level than that one moved, within a factor {BRANCH_JUMP:g}). A level that jumped branch "
+        "or is unstable is listed here and left out of the extrapolation.", Table(BRANCH, a.branch_rows),
+        "First frame-frame or frame-film contact: the bracket each level's path found (bisection to 1e-3 in "
+        "pre-stretch) and the value extrapolated over the levels (Richardson), its error estimate plus half the "
+        "finest bracket.", Table(FIRST_CONTACT, a.first_contact)])
+
+
+def _second_states_section(a: Analysis, figures: dict[str, Path | None]) -> Section:
+    """The search for second stable states."""
+    return Section("Second stable states", [
+        "The path above is one quasi-static branch. To look for others, DR applies each pre-stretch at once from "
+        "the flat state (as the paper did: the pseudo-dynamic transient can settle off the path) on the matched "
+        "model at refinement 0, and the FEM's Newton on the same mesh polishes that state and checks its stability "
+        "(lowest eigenvalue of the tangent). A polished state that is stable and more than "
+        f"{SECOND_STATE:g} of the side from the path's state is a second stable state; both are listed with their "
+        "energies. A search from one start per pre-stretch finds some other states, not all.",
+        Table(SECOND, a.second_states)])
+
+
+def _energy_section(a: Analysis, figures: dict[str, Path | None]) -> Section:
+    """Energies against stroke."""
+    return Section("Energy against stroke", [
+        ENERGY_DEFINITION, mismatch_sentence(),
+        "Strain energy split into membrane and frame, against the stroke from the most bent state; dotted: the "
+        "membrane part by the paper's formula.", figures.get("energy_stroke")])
+
+
+def _tension_field_section(a: Analysis, figures: dict[str, Path | None]) -> Section:
+    """Slack film area per state."""
+    return Section("Tension field", [
+        "Flat membrane area with at least one slack link family (a tension field: the film would wrinkle) and with "
+        "every family slack, per state.",
+        Table(SLACK, [r for r in a.state_rows if r.get("group") in ("sweep", "reference")])])
+
+
+def _speed_section(a: Analysis, figures: dict[str, Path | None]) -> Section:
+    """Wall time against shape error."""
+    lam = a.plan.speed_prestretch
+    return Section(f"Speed against error (lambda = {lam:g})", [
+        "Each state solved from scratch; DR over mesh density and tolerance, the FEM over refinement levels "
+        "(continuation from the flat state included in its time).",
+        Table(SPEED, a.speed_rows), Table(REACH, a.reach), figures.get("pareto")])
+
+
+def _budget_section(a: Analysis, figures: dict[str, Path | None]) -> Section:
+    """The error budget."""
+    lam = a.plan.speed_prestretch
+    return Section(f"Error budget (lambda = {lam:g})", [
+        "Discretisation error of each model against its own refined limit, model-form differences (one ingredient "
+        "at a time), and the solver tolerance.", Table(BUDGET, a.budget), figures.get("convergence")])
+
+
+def _hard_cases_section(a: Analysis, figures: dict[str, Path | None]) -> Section:
+    """The hard cases."""
+    return Section("Hard cases", [Table(HARD, a.hard)])
+
+
+def _shapes_section(a: Analysis, figures: dict[str, Path | None]) -> Section:
+    """Renders of the states."""
+    return Section("Shapes", [
+        "DR and FEM states rendered top, side and perspective (the paper's Fig. 3 views); ParaView series: "
+        "runs/<run>/<run>.pvd.", figures.get("renders")])
+
+
+SECTIONS: tuple[Callable[[Analysis, dict[str, Path | None]], Section], ...] = (
+    _findings_section, _shape_section, _limits_section, _reference_levels_section, _second_states_section,
+    _energy_section, _tension_field_section, _speed_section, _budget_section, _hard_cases_section, _shapes_section,
+)
+"""The validation's own sections of the report, in order."""
 
 
 def _plain(obj: Any) -> Any:

@@ -30,13 +30,13 @@ import time
 import traceback
 from dataclasses import asdict
 from pathlib import Path
-from typing import Any, Callable
+from typing import Any, Callable, Mapping, Sequence
 
 import scenes
 from results import Result, atomic_write_text, level_label, load_result, save_result, write_pvd
 
-from . import experiment
 from .executor import DEFAULT_WORKERS, connect, run_tasks
+from .extension import Study
 from .lock import folder_lock
 from .plan import Plan, Run
 
@@ -128,10 +128,16 @@ def _polished(found: Result) -> Result:
     return res
 
 
+StudyExecute = Callable[[Run, Any, Path], dict[float, Result]]
+"""A study's solver of its own runs (:attr:`validation.extension.Study.execute`)."""
+
+
 def execute(run: Run, scene_data: dict[str, Any], out_dir: str,
-            copies: dict[str, tuple[Run, ...]] | None = None) -> dict[str, Any]:
+            copies: dict[str, tuple[Run, ...]] | None = None,
+            studies: Mapping[str, StudyExecute] | None = None) -> dict[str, Any]:
     """Solve one run (in a worker process) and write its states and record; the runs in
-    ``copies[run.label]`` (the same computation, see :func:`computation_key`) get a copy."""
+    ``copies[run.label]`` (the same computation, see :func:`computation_key`) get a copy. A run
+    of a group in ``studies`` is solved by that study's ``execute``."""
     os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
     run_dir = Path(out_dir) / "runs" / run.label
     run_dir.mkdir(parents=True, exist_ok=True)
@@ -145,8 +151,9 @@ def execute(run: Run, scene_data: dict[str, Any], out_dir: str,
     states: dict[float, Result] = {}
     try:
         scene = scenes.Scene.from_dict(scene_data).updated(**run.changes)
-        if run.voltages:  # states keyed by voltage: see validation.experiment
-            states = experiment.execute(run, scene, run_dir)
+        study = (studies or {}).get(run.group)
+        if study is not None:
+            states = study(run, scene, run_dir)
         else:
             states.update(load_states(run_dir, run.prestretches))
             for res in _states(run, scene, dict(states)):
@@ -259,8 +266,8 @@ def stale_runs(plan: Plan, scene_data: dict[str, Any], out_dir: Path) -> list[st
 
 
 def _as_recorded(run: Run) -> dict[str, Any]:
-    """``run`` as its record holds it (through JSON: tuples become lists). The voltage fields
-    are left out where they are off, so records written before they existed still match."""
+    """``run`` as its record holds it (through JSON: tuples become lists). The voltage and
+    polish fields are left out where they are off: a record holds the options its run uses."""
     rec = asdict(run)
     for key in ("voltages", "calibrate", "polish"):
         if not rec[key]:
@@ -270,18 +277,21 @@ def _as_recorded(run: Run) -> dict[str, Any]:
 
 def run_plan(plan: Plan, scene_data: dict[str, Any], out_dir: Path, workers: int = DEFAULT_WORKERS,
              progress: bool = True, on_done: Callable[[dict[str, Any]], None] | None = None,
-             scheduler: str | None = None) -> dict[str, dict[str, Any]]:
+             scheduler: str | None = None, *, studies: Sequence[Study] = ()) -> dict[str, dict[str, Any]]:
     """Execute every run of ``plan`` that is not complete on disk; returns all run records.
 
     The runs go to the Dask cluster at ``scheduler`` if given, else to a LocalCluster of
     ``workers`` processes (``workers <= 1``: this process), see :mod:`validation.executor`.
+    The runs of each study's group are solved by the study (:class:`validation.extension.Study`).
     """
+    executes = {study.group: study.execute for study in studies}
     with folder_lock(out_dir, "demes validate"):
-        return _run_plan(plan, scene_data, out_dir, workers, progress, on_done, scheduler)
+        return _run_plan(plan, scene_data, out_dir, workers, progress, on_done, scheduler, executes)
 
 
 def _run_plan(plan: Plan, scene_data: dict[str, Any], out_dir: Path, workers: int, progress: bool,
-              on_done: Callable[[dict[str, Any]], None] | None, scheduler: str | None) -> dict[str, dict[str, Any]]:
+              on_done: Callable[[dict[str, Any]], None] | None, scheduler: str | None,
+              studies: Mapping[str, StudyExecute]) -> dict[str, dict[str, Any]]:
     todo, copies = _computations(plan, scene_data, out_dir)
     # the slowest first, so that the workers finish together: the runs that take minutes (the
     # reference levels, the main sweeps, DR's own refinement, the voltage runs, DR on 40 or more
@@ -293,7 +303,7 @@ def _run_plan(plan: Plan, scene_data: dict[str, Any], out_dir: Path, workers: in
         return 1 + len(copies[run.label])
 
     with connect(scheduler, workers if todo else 1) as client:
-        for outcome in run_tasks(execute, todo, client=client, args=(scene_data, str(out_dir), copies),
+        for outcome in run_tasks(execute, todo, client=client, args=(scene_data, str(out_dir), copies, studies),
                                  weight=weight, total=len(plan.runs),
                                  done=len(plan.runs) - sum(weight(r) for r in todo),
                                  desc="validate", unit="run", progress=progress):

@@ -6,7 +6,7 @@ from pathlib import Path
 
 import pandas as pd
 
-from .figures import _save, plt
+from .plotting import plt, save_figure
 from .grid import Grid
 from .tables import header
 
@@ -47,4 +47,4 @@ def _plot(table: pd.DataFrame, field: str, others: list[str], path: Path) -> Pat
         axes.flat[0].legend(fontsize=7)
     note = f"; {len(groups)} lines, one per {' x '.join(others)}" if len(groups) > 1 else ""
     fig.suptitle(f"measures against {field} (open markers: path stopped{note})", fontsize=10)
-    return _save(fig, path)
+    return save_figure(fig, path)

@@ -1,4 +1,8 @@
-"""``demes validate``: run the plan, analyse it, draw it, write the report."""
+"""``demes validate``: run the plan, analyse it, draw it, write the report.
+
+Here the studies that plug into the validation (:class:`validation.extension.Study`) are listed
+and handed to every stage.
+"""
 
 from __future__ import annotations
 
@@ -8,10 +12,14 @@ from pathlib import Path
 import scenes
 
 from . import experiment, figures
-from .analysis import analyse
+from .analysis import Analysis, analyse
+from .extension import Study
 from .plan import build_plan
 from .report import write_report
 from .runner import run_plan, stale_runs
+
+STUDIES: tuple[Study, ...] = (experiment.STUDY,)
+"""The studies of ``demes validate`` beside its own comparisons, in the report's order."""
 
 
 def validate(scene: scenes.Scene, out_dir: Path, quick: bool = False, workers: int = 2,
@@ -22,24 +30,31 @@ def validate(scene: scenes.Scene, out_dir: Path, quick: bool = False, workers: i
     processes (``workers <= 1``: this process). ``solve=False`` solves nothing: the report is
     written from the states already in ``out_dir``, and names the runs that are not finished."""
     t0 = time.perf_counter()
-    plan = build_plan(quick)
+    plan = build_plan(quick, studies=STUDIES)
     if solve:
-        run_plan(plan, scene.to_dict(), out_dir, workers=workers, progress=progress, scheduler=scheduler)
-    a = analyse(plan, out_dir)
+        run_plan(plan, scene.to_dict(), out_dir, workers=workers, progress=progress, scheduler=scheduler,
+                 studies=STUDIES)
+    a = analyse(plan, out_dir, studies=STUDIES)
     if not solve:
         a.stale = stale_runs(plan, scene.to_dict(), out_dir)
-    fig_dir = out_dir / "figures"
+    figs = draw(a, out_dir / "figures")
+    title = f"DEMES validation: DR against the FEM reference ({scene.name}{', quick' if quick else ''})"
+    files = write_report(a, out_dir, figs, title, studies=STUDIES)
+    files["elapsed_s"] = time.perf_counter() - t0  # type: ignore[assignment]
+    return files
+
+
+def draw(a: Analysis, fig_dir: Path) -> dict[str, Path | None]:
+    """The report's figures by name: the validation's own, then each study's."""
     figs = {
         "bending_angle": figures.bending_angle(a, fig_dir / "bending_angle.png"),
         "energy_stroke": figures.energy_stroke(a, fig_dir / "energy_stroke.png"),
         "convergence": figures.convergence(a, fig_dir / "convergence.png"),
         "pareto": figures.pareto(a, fig_dir / "pareto.png"),
         "frame_curves": figures.frame_curves(a, fig_dir / "frame_curves.png"),
-        "renders": figures.renders(a, plan.speed_prestretch, fig_dir / "shapes.png"),
+        "renders": figures.renders(a, a.plan.speed_prestretch, fig_dir / "shapes.png"),
     }
-    if a.experiment is not None:
-        figs.update(experiment.figures(a.experiment, fig_dir))
-    title = f"DEMES validation: DR against the FEM reference ({scene.name}{', quick' if quick else ''})"
-    files = write_report(a, out_dir, figs, title)
-    files["elapsed_s"] = time.perf_counter() - t0  # type: ignore[assignment]
-    return files
+    for study in STUDIES:
+        if study.name in a.studies:
+            figs.update(study.figures(a.studies[study.name], fig_dir))
+    return figs

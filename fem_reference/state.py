@@ -1,0 +1,195 @@
+"""What a FEM path reports: its steps (:class:`StepRecord`), where it got to (:class:`Outcome`),
+and the shared :class:`results.Result` of a state (:func:`make_result`)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from results import ENERGY_KEYS, Result
+from scenes import Scene
+
+from .model import DemesProblem, Evaluation
+from .newton import NotFactorizable
+from .output import blocks, compressed_fraction, paper_formula_membrane_energy, slack_fractions
+from .stability import lowest_free_mode, neutral_tolerance
+
+@dataclass
+class StepRecord:
+    """One continuation step: its pre-stretch, Newton residual history and eigenmode steps."""
+
+    prestretch: float
+    iterations: int
+    residuals: list[float]
+    eigen_steps: int
+
+    def as_dict(self) -> dict:
+        return {"prestretch": self.prestretch, "iterations": self.iterations,
+                "residuals": self.residuals, "eigen_steps": self.eigen_steps}
+
+
+@dataclass
+class Outcome:
+    """Where the path got to for one requested pre-stretch."""
+
+    y: np.ndarray
+    prestretch: float
+    status: str
+    detail: str
+    records: list[StepRecord] = field(default_factory=list)
+    first_contact: tuple[float, float] | None = None  # (last free, first in contact) lambda
+    snaps: list[tuple[float, float]] = field(default_factory=list)  # limit points jumped
+    lowest_eigenvalue: float = float("nan")
+
+    @property
+    def converged(self) -> bool:
+        return self.status == "converged"
+
+
+
+STATUS_WORDS = {"converged": "converged", "self_contact": "stopped at self-contact",
+                "film_contact": "stopped where the film passes through itself or the frame",
+                "unstable": "found no stable state", "max_iterations": "did not converge",
+                "diverged": "diverged", "time_limit": "stopped at the time limit",
+                "not_finite": "stopped at a non-finite value"}
+"""A path's status in the words of a state's message."""
+
+
+@dataclass(frozen=True)
+class Stability:
+    """The lowest eigenvalue (N/mm^3; NaN where not computed) of a state's tangent, and whether
+    the state counts as stable."""
+
+    omega: float
+    stable: bool
+
+
+def newton_tails(records: list[StepRecord]) -> list[list[float]]:
+    """The last four relative residuals of each continuation step (quadratic: each about the
+    square of the one before, down to the round-off floor near 1e-10)."""
+    return [rec.residuals[-4:] for rec in records]
+
+
+def make_result(problem: DemesProblem, out: Outcome, requested: float, wall: float,
+                steps_total: int, state_scene: Scene | None = None) -> Result:
+    """The shared ``Result`` of a FEM state; ``state_scene`` is its scene (default: the
+    problem's at the pre-stretch reached)."""
+    scene = problem.scene
+    lam = out.prestretch
+    ev = problem.evaluate(out.y, 1)
+    residual = _relative_residual(problem, ev, lam)
+    stability = _stability(problem, out)
+    iterations = sum(r.iterations for r in out.records)
+    compressed = compressed_fraction(problem, out.y) if lam > 1.0 else 0.0
+    slack = slack_fractions(problem, out.y) if lam > 1.0 else (0.0, 0.0)
+    status, converged, message = _status_and_message(scene, out, requested, residual, iterations, stability,
+                                                     compressed)
+    mesh = problem.mesh
+    if state_scene is None:
+        state_scene = scene if lam == scene.prestretch else scene.updated(prestretch=lam)
+    return Result(
+        solver="fem",
+        x=out.y.reshape(-1, 3).copy(),
+        x0=problem.X.copy(),
+        converged=converged,
+        status=status,
+        message=message,
+        iterations=iterations,
+        residual=residual,
+        wall_time=wall,
+        energy=_energy(ev),
+        residual_history=np.array([v for r in out.records for v in r.residuals]),
+        prestretch=lam,
+        frame_nodes=mesh.frame_nodes.copy(),
+        frame_s=mesh.frame_s.copy(),
+        scene=state_scene,
+        blocks=blocks(problem, out.y, state_scene),
+        point_data={},
+        info=_info(problem, out, requested, steps_total, stability, compressed, slack),
+    )
+
+
+def _energy(ev: Evaluation) -> dict[str, float]:
+    """The energy parts of a state (N mm) and their total."""
+    energy = {k: ev.parts.get(k, 0.0) for k in ENERGY_KEYS if k != "total"}
+    energy["total"] = sum(energy.values())
+    return energy
+
+
+def _relative_residual(problem: DemesProblem, ev: Evaluation, lam: float) -> float:
+    """Largest free nodal force over the force scale (0 at the flat state)."""
+    residual = ev.gradient[problem.free]
+    return float(np.abs(residual).max() / ev.force_scale) if lam > 1.0 else 0.0
+
+
+def _stability(problem: DemesProblem, out: Outcome) -> Stability:
+    """The lowest eigenvalue of a converged curled state, and its stability (the flat state is
+    stable by definition; a tangent that cannot be factorised leaves it unknown: unstable)."""
+    lam = out.prestretch
+    omega = float("nan")
+    if lam > 1.0:
+        try:
+            omega = lowest_free_mode(problem, out.y)[0] if out.converged else float("nan")
+        except NotFactorizable:
+            pass
+    stable = bool(omega > -neutral_tolerance(problem.scene)) if np.isfinite(omega) else lam == 1.0
+    return Stability(omega, stable)
+
+
+def _status_and_message(scene: Scene, out: Outcome, requested: float, residual: float, iterations: int,
+                        stability: Stability, compressed: float) -> tuple[str, bool, str]:
+    """The state's status, whether it counts as converged, and the sentence that says so: a
+    non-linear film in compression over more than 1 % of its area is not a converged state."""
+    lam = out.prestretch
+    status, converged = out.status, out.converged
+    message = (f"lambda = {lam:.3f}: {STATUS_WORDS[status]}; relative residual {residual:.1e} after {iterations} "
+               f"Newton iterations in {len(out.records)} continuation steps")
+    if out.detail:
+        message += f"; {out.detail}"
+    if converged:
+        message += (f"; {'stable' if stability.stable else 'UNSTABLE'} (lowest eigenvalue {stability.omega:.3g} N/mm^3)"
+                    if lam > 1.0 else "; the flat state")
+    if scene.membrane.law != "linear" and compressed > 0.01:
+        status, converged = "compression", False
+        message += (f"; the {scene.membrane.law} film is in compression over {100 * compressed:.1f} % of its "
+                    "area: it would wrinkle, which this membrane model does not represent")
+    if out.snaps:
+        message += "; snapped through at " + ", ".join(
+            f"lambda = {a:.4f} -> {b:.4f}" for a, b in out.snaps) + " (end of the branch)"
+    if lam < requested - 1e-12:
+        message += f"; the requested lambda = {requested:.3f} was not reached"
+    return status, converged, message
+
+
+def _info(problem: DemesProblem, out: Outcome, requested: float, steps_total: int, stability: Stability,
+          compressed: float, slack: tuple[float, float]) -> dict:
+    """The state's ``info``: its path, stability, mesh and model, and what the film does."""
+    scene, mesh = problem.scene, problem.mesh
+    info = {
+        "newton": [r.as_dict() for r in out.records],
+        "newton_tails": newton_tails(out.records),
+        "lowest_eigenvalue_N_per_mm3": stability.omega,
+        "stable": stability.stable,
+        "continuation_steps": len(out.records),
+        "continuation_steps_total": steps_total,
+        "n_dofs": problem.n_dofs,
+        "n_free_dofs": int(problem.free.size),
+        "n_elements": int(mesh.cells.shape[0]),
+        "refinement": int(round(np.log2(scene.spacing / mesh.spacing))),
+        "element": mesh.element,
+        "mesh_size_mm": mesh.spacing,
+        "frame_model": scene.frame.model,
+        "film_offset_mm": problem.offset,
+        "director_lever_mm": scene.frame.lever,
+        "compressed_area_fraction": compressed,
+        "slack_area_fraction_any": slack[0],
+        "slack_area_fraction_full": slack[1],
+        "energy_membrane_paper_formula": paper_formula_membrane_energy(problem, out.y),
+        "requested_prestretch": requested,
+    }
+    if out.first_contact is not None:
+        info["first_contact_prestretch"] = out.first_contact
+    if out.snaps:
+        info["snaps"] = out.snaps
+    return info
