@@ -5,22 +5,20 @@ an equilibrium whose lowest mode (the curl) has a negative stiffness once the pr
 passes the buckling load. A fast relaxation (the frame mass) reaches it before that mode has
 grown. The test is the generalised eigenproblem K v = w M v on the free DOFs, with K the
 stiffness (central differences of the exact gradient, never assembled) and M the run's own
-masses (so w <= 1 for f = 2, and the masses precondition the solve): w < -:data:`NEUTRAL`
+masses (so w <= 1 for f = 2, and the masses precondition the search): w < -:data:`NEUTRAL`
 is a saddle. :func:`leave_saddle` steps from it along the mode, to lower energy, as the FEM's
 continuation does.
 """
 
 from __future__ import annotations
 
-import warnings
 from typing import NamedTuple
 
 import numpy as np
 import scipy.sparse as sp
-from scipy.sparse.linalg import LinearOperator, lobpcg
+from scipy.sparse.linalg import ArpackNoConvergence, LinearOperator, eigsh, splu
 
 from . import dielectric
-from . import integrator as itg
 from .kernels import Packed, energy, gradient
 from .masses import masses_at
 
@@ -28,11 +26,11 @@ NEUTRAL = 1e-6
 """Generalised eigenvalues w above minus this count as zero (slack film, round-off of the
 central differences): w is dimensionless, about 1 for the stiffest mode."""
 
-MODE_TOLERANCE = 1e-4
-"""Relative residual |K v - w M v| / |M v| at which the lowest mode counts as found."""
+MODE_TOLERANCE = 1e-6
+"""Relative accuracy of the lowest eigenvalue (ARPACK's ``tol``)."""
 
-MODE_ITERATIONS = 200
-"""Largest number of LOBPCG iterations for the lowest mode."""
+MODE_ITERATIONS = 2000
+"""Largest number of Lanczos restarts for the lowest mode."""
 
 
 class Mode(NamedTuple):
@@ -40,7 +38,7 @@ class Mode(NamedTuple):
 
     eigenvalue: float  # w (dimensionless, the masses' scale: the stiffest mode is about 1)
     shape: np.ndarray  # (n, 3), the largest nodal displacement 1; fixed DOFs 0
-    iterations: int  # LOBPCG iterations
+    iterations: int  # applications of K (two gradients each)
     found: bool  # converged to MODE_TOLERANCE
 
 
@@ -53,7 +51,10 @@ def potential_energy(X: np.ndarray, P: Packed, loads: np.ndarray) -> float:
 def lowest_mode(model, x: np.ndarray, *, masses: str = "frame", guess: np.ndarray | None = None) -> Mode:
     """The lowest mode of ``model`` at positions ``x`` (n, 3) mm, against the masses
     ``masses`` ('frame', 'tensor' or 'scalar') that :func:`dr.relax` would use there (f = 2).
-    ``guess`` (n, 3): a shape to start the search from (e.g. the scene's lift)."""
+    ``guess`` (n, 3): a shape to start the search from (e.g. the scene's lift).
+
+    Lanczos (ARPACK) on the symmetric C = M^-1/2 K M^-T/2, whose spectrum lies in about
+    [-1, 1] because the masses bound the stiffness."""
     P0 = model.pack()
     n = P0.n
     X = np.zeros((P0.n_total, 3))
@@ -63,36 +64,43 @@ def lowest_mode(model, x: np.ndarray, *, masses: str = "frame", guess: np.ndarra
     h = 1e-6 * max(float(np.ptp(x, axis=0).max()), 1e-9)
     G, no_blocks = np.zeros_like(X), np.zeros((0, 6))
 
-    def grad(d: np.ndarray) -> np.ndarray:
-        X[:n] = x + d
-        gradient(X, P0, G, no_blocks)
-        return G[:n].reshape(-1)[free].copy()
+    def stiffness(d: np.ndarray) -> np.ndarray:
+        """K d on all DOFs (d zero at held ones), by central differences."""
+        out = []
+        for sign in (1.0, -1.0):
+            X[:n] = x + sign * h * d.reshape(n, 3)
+            gradient(X, P0, G, no_blocks)
+            out.append(G[:n].reshape(-1).copy())
+        return (out[0] - out[1]) / (2.0 * h)
 
-    def stiffness(V: np.ndarray) -> np.ndarray:
-        out = np.empty_like(V)
-        for j in range(V.shape[1]):
-            d = _on_nodes(V[:, j], free, n)
-            out[:, j] = (grad(h * d) - grad(-h * d)) / (2.0 * h)
-        return out
+    half, half_t = _mass_halves(built, n)
+    movable = (~model.fixed).reshape(-1)
+    applications = 0
 
-    mass, inverse = _mass_operators(built, free, n)
+    def C(v: np.ndarray) -> np.ndarray:
+        nonlocal applications
+        applications += 1
+        u = np.zeros(3 * n)
+        u[free] = v
+        u = half_t(u) * movable
+        k = stiffness(u)
+        return half(k)[free]
+
     m = free.size
-    rng = np.random.default_rng(0)
-    start = rng.standard_normal((m, 3))
-    if guess is not None:
-        start[:, 0] = np.asarray(guess, dtype=float).reshape(-1)[free]
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")  # not converging is reported in Mode.found
-        w, V, history = lobpcg(_operator(stiffness, m), start, B=_operator(mass, m), M=_operator(inverse, m),
-                               largest=False, tol=MODE_TOLERANCE, maxiter=MODE_ITERATIONS,
-                               retResidualNormsHistory=True)
-    k = int(np.argmin(w))
-    v = V[:, [k]]
-    Mv = mass(v)
-    found = bool(np.linalg.norm(stiffness(v) - w[k] * Mv) <= 10 * MODE_TOLERANCE * np.linalg.norm(Mv))
-    shape = _on_nodes(v[:, 0], free, n)
+    start = np.ones(m) if guess is None else np.asarray(guess, dtype=float).reshape(-1)[free] + 1e-3
+    try:
+        w, v = eigsh(LinearOperator((m, m), matvec=C, dtype=float), k=1, which="SA", tol=MODE_TOLERANCE,
+                     v0=start, maxiter=MODE_ITERATIONS)
+        found = True
+    except ArpackNoConvergence as stop:
+        if not len(stop.eigenvalues):
+            return Mode(float("nan"), np.zeros((n, 3)), applications, False)
+        w, v, found = stop.eigenvalues, stop.eigenvectors, False
+    u = np.zeros(3 * n)
+    u[free] = v[:, 0]
+    shape = half_t(u).reshape(n, 3) * ~model.fixed
     shape /= max(float(np.linalg.norm(shape, axis=1).max()), 1e-300)
-    return Mode(float(w[k]), shape, len(history), found)
+    return Mode(float(w[0]), shape, applications, found)
 
 
 def leave_saddle(model, x: np.ndarray, mode: Mode, *, sign: float, size: float) -> np.ndarray | None:
@@ -112,46 +120,34 @@ def leave_saddle(model, x: np.ndarray, mode: Mode, *, sign: float, size: float) 
     return None
 
 
-def _on_nodes(v: np.ndarray, free: np.ndarray, n: int) -> np.ndarray:
-    d = np.zeros(3 * n)
-    d[free] = v
-    return d.reshape(n, 3)
-
-
-def _operator(apply, m: int) -> LinearOperator:
-    def on_block(V):
-        return apply(np.asarray(V).reshape(m, -1))
-    return LinearOperator((m, m), matvec=on_block, matmat=on_block, dtype=float)
-
-
-def _mass_operators(built, free: np.ndarray, n: int):
-    """M v and M^-1 v on the free DOFs: node blocks, and the frame mass as L L^T (its factor
-    fresh from :func:`dr.masses.masses_at`, so no rotation since the refresh)."""
+def _mass_halves(built, n: int):
+    """u -> M^-1/2 u and u -> M^-T/2 u on all 3n DOFs, M = B B^T: the frame mass's factor L
+    (fresh from :func:`dr.masses.masses_at`, so no rotation since the refresh) and each other
+    node's 3x3 Cholesky factor (its held axes decoupled, as the time loop builds them)."""
     st, fm = built.state, built.frame
-    tensor_node = fm.pos < 0
-    a, b, c, d, e, f = st.M.T
     dof = (3 * fm.nodes[:, None] + np.arange(3)).ravel()
     N = dof.size
     rows = np.repeat(np.arange(N), np.diff(fm.start[: N + 1]))
     cols = fm.first[rows] + np.arange(rows.size) - fm.start[rows]
-    L = sp.csr_matrix((fm.env[: rows.size], (rows, cols)), shape=(N, N))
+    factor = (splu(sp.csc_matrix((fm.env[: rows.size], (rows, cols)), shape=(N, N)), permc_spec="NATURAL",
+                   diag_pivot_thresh=0.0, options={"SymmetricMode": False}) if N else None)
+    nodes = np.flatnonzero(fm.pos < 0)
+    a, b, c, d, e, f = st.M[nodes].T
+    blocks = np.stack([np.stack([a, d, e], -1), np.stack([d, b, f], -1), np.stack([e, f, c], -1)], 1)
+    B = np.linalg.cholesky(blocks)
 
-    def mass(V: np.ndarray) -> np.ndarray:
-        out = np.empty_like(V)
-        for j in range(V.shape[1]):
-            u = _on_nodes(V[:, j], free, n)
-            r = np.stack([a * u[:, 0] + d * u[:, 1] + e * u[:, 2], d * u[:, 0] + b * u[:, 1] + f * u[:, 2],
-                          e * u[:, 0] + f * u[:, 1] + c * u[:, 2]], axis=1) * tensor_node[:, None]
-            r.reshape(-1)[dof] = L @ (L.T @ u.reshape(-1)[dof])
-            out[:, j] = r.reshape(-1)[free]
-        return out
+    def half(u: np.ndarray) -> np.ndarray:
+        z = np.zeros_like(u)
+        if factor is not None:
+            z[dof] = factor.solve(u[dof])
+        z.reshape(n, 3)[nodes] = np.linalg.solve(B, u.reshape(n, 3)[nodes][:, :, None])[:, :, 0]
+        return z
 
-    def inverse(V: np.ndarray) -> np.ndarray:
-        out = np.empty_like(V)
-        for j in range(V.shape[1]):
-            st.R[:] = _on_nodes(V[:, j], free, n)
-            itg.accelerations(st, fm, n)
-            out[:, j] = st.A.reshape(-1)[free]
-        return out
+    def half_t(u: np.ndarray) -> np.ndarray:
+        z = np.zeros_like(u)
+        if factor is not None:
+            z[dof] = factor.solve(u[dof], trans="T")
+        z.reshape(n, 3)[nodes] = np.linalg.solve(np.swapaxes(B, 1, 2), u.reshape(n, 3)[nodes][:, :, None])[:, :, 0]
+        return z
 
-    return mass, inverse
+    return half, half_t

@@ -1,0 +1,61 @@
+"""DR's stability check (dr.stability) against Euler's column, and the DEMES leaving its flat saddle."""
+
+import numpy as np
+import pytest
+
+import dr
+import scenes
+from dr import stability
+
+EA, EI, LENGTH = 1300.0, 0.78, 80.0
+EULER = np.pi**2 * EI / LENGTH**2  # pinned-pinned buckling load, N
+
+
+def compressed_column(load: float, n_seg: int = 40) -> tuple[dr.Model, np.ndarray]:
+    """A straight pinned-pinned rod shortened to carry ``load`` (N), relaxed: its straight
+    equilibrium (both ends held where the shortening puts them)."""
+    x = np.zeros((n_seg + 1, 3))
+    x[:, 0] = np.linspace(0.0, LENGTH, n_seg + 1)
+    m = dr.Model(x)
+    m.support([0, n_seg])
+    m.add_rod(np.arange(n_seg + 1), EI=EI, EA=EA)
+    start = x * [1.0 - load / EA, 1.0, 1.0]
+    res = dr.relax(m, tol=1e-10, x_start=start)
+    assert res.converged and res.info["masses"] == "frame", res.message
+    return m, res.x
+
+
+@pytest.mark.parametrize("fraction", [0.99, 1.01])
+def test_the_straight_column_loses_stability_at_the_euler_load(fraction):
+    """The lowest mode's stiffness changes sign within 1 % of pi^2 EI / L^2, and it is the
+    half sine."""
+    model, x = compressed_column(fraction * EULER)
+    mode = stability.lowest_mode(model, x)
+    assert mode.found
+    assert (mode.eigenvalue > stability.NEUTRAL) if fraction < 1 else (mode.eigenvalue < -stability.NEUTRAL)
+    lateral = np.linalg.norm(mode.shape[:, 1:], axis=1)
+    sine = np.sin(np.pi * x[:, 0] / x[-1, 0])
+    assert abs(lateral @ sine) / np.linalg.norm(lateral) / np.linalg.norm(sine) > 0.999
+    assert np.abs(mode.shape[:, 0]).max() < 0.05  # it bends; it does not stretch
+
+
+def test_the_flat_demes_is_a_saddle_that_dr_leaves_apex_up():
+    """The flat state at 110 % (in-plane equilibrium: the frame drawn in, out-of-plane
+    displacements held at zero, then released) has a negative-stiffness mode, as the FEM
+    finds; DR started there steps off it, apex up as the scene's perturbation asks, to a
+    stable state of lower energy (at 8 divisions a shallower one, 20 deg, than the 50 deg the
+    path from flat follows: the DEMES has more than one stable state)."""
+    scene = scenes.paper_demes(1.1, "strip", **{"dr.membrane_net": "triangles", "mesh.divisions": 8})
+    held = dr.build(scene)
+    held.model.support(np.arange(held.model.n), "z")
+    flat = dr.relax(held.model, tol=1e-8, x_start=held.model.nodes, masses="frame")
+    assert flat.converged and np.abs(flat.x[:, 2]).max() == 0.0
+    model = dr.build(scene).model
+    saddle = stability.lowest_mode(model, flat.x)
+    assert saddle.found and saddle.eigenvalue < -stability.NEUTRAL
+    left = dr.solve(scene, x_start=flat.x, from_prestretch=1.1)
+    assert left.converged and left.info["saddle_steps"] >= 1
+    assert left.bending_angle > 1.0
+    assert left.energy["total"] < flat.energy["total"]
+    after = stability.lowest_mode(model, left.x)
+    assert after.found and after.eigenvalue > stability.NEUTRAL
