@@ -26,6 +26,12 @@ NEUTRAL = 1e-6
 """Generalised eigenvalues w above minus this count as zero (slack film, round-off of the
 central differences): w is dimensionless, about 1 for the stiffest mode."""
 
+FLOOR = 1e-3
+"""The node blocks get this fraction of their median diagonal added: a slack film node's mass
+is a sliver of its stiffness in the slack direction, and there the central differences' noise
+over the sliver would read as a large negative w. Any SPD metric gives the eigenvalues the same
+signs (Sylvester's law of inertia)."""
+
 MODE_TOLERANCE = 1e-6
 """Relative accuracy of the lowest eigenvalue (ARPACK's ``tol``)."""
 
@@ -36,10 +42,11 @@ MODE_ITERATIONS = 2000
 class Mode(NamedTuple):
     """The lowest eigenpair of K v = w M v at a state."""
 
-    eigenvalue: float  # w (dimensionless, the masses' scale: the stiffest mode is about 1)
+    eigenvalue: float  # w = v^T K v / v^T M v (the masses' scale: the stiffest mode is about 1)
     shape: np.ndarray  # (n, 3), the largest nodal displacement 1; fixed DOFs 0
     iterations: int  # applications of K (two gradients each)
     found: bool  # converged to MODE_TOLERANCE
+    stiffness: float  # its Rayleigh quotient v^T K v / v^T v, N/mm
 
 
 def potential_energy(X: np.ndarray, P: Packed, loads: np.ndarray) -> float:
@@ -65,13 +72,15 @@ def lowest_mode(model, x: np.ndarray, *, masses: str = "frame", guess: np.ndarra
     G, no_blocks = np.zeros_like(X), np.zeros((0, 6))
 
     def stiffness(d: np.ndarray) -> np.ndarray:
-        """K d on all DOFs (d zero at held ones), by central differences."""
+        """K d on all DOFs (d zero at held ones), by central differences moving no node more
+        than h: the differences stay linear however large d is."""
+        step = h / max(float(np.abs(d).max()), 1e-300)
         out = []
         for sign in (1.0, -1.0):
-            X[:n] = x + sign * h * d.reshape(n, 3)
+            X[:n] = x + sign * step * d.reshape(n, 3)
             gradient(X, P0, G, no_blocks)
             out.append(G[:n].reshape(-1).copy())
-        return (out[0] - out[1]) / (2.0 * h)
+        return (out[0] - out[1]) / (2.0 * step)
 
     half, half_t = _mass_halves(built, n)
     movable = (~model.fixed).reshape(-1)
@@ -89,18 +98,21 @@ def lowest_mode(model, x: np.ndarray, *, masses: str = "frame", guess: np.ndarra
     m = free.size
     start = np.ones(m) if guess is None else np.asarray(guess, dtype=float).reshape(-1)[free] + 1e-3
     try:
-        w, v = eigsh(LinearOperator((m, m), matvec=C, dtype=float), k=1, which="SA", tol=MODE_TOLERANCE,
+        _, v = eigsh(LinearOperator((m, m), matvec=C, dtype=float), k=1, which="SA", tol=MODE_TOLERANCE,
                      v0=start, maxiter=MODE_ITERATIONS)
         found = True
     except ArpackNoConvergence as stop:
         if not len(stop.eigenvalues):
-            return Mode(float("nan"), np.zeros((n, 3)), applications, False)
-        w, v, found = stop.eigenvalues, stop.eigenvectors, False
-    u = np.zeros(3 * n)
-    u[free] = v[:, 0]
-    shape = half_t(u).reshape(n, 3) * ~model.fixed
-    shape /= max(float(np.linalg.norm(shape, axis=1).max()), 1e-300)
-    return Mode(float(w[0]), shape, applications, found)
+            return Mode(float("nan"), np.zeros((n, 3)), applications, False, float("nan"))
+        v, found = stop.eigenvectors, False
+    y = np.zeros(3 * n)
+    y[free] = v[:, 0] / np.linalg.norm(v[:, 0])
+    u = half_t(y) * movable  # u^T M u = |y|^2 = 1
+    Ku = stiffness(u) * movable
+    # the Rayleigh quotients of the mode itself: where K is not smooth (a cable at exactly its
+    # rest length, tension-only) the Ritz value of a symmetric solver need not be one
+    shape = u.reshape(n, 3) / max(float(np.linalg.norm(u.reshape(n, 3), axis=1).max()), 1e-300)
+    return Mode(float(u @ Ku), shape, applications, found, float(u @ Ku / (u @ u)))
 
 
 def leave_saddle(model, x: np.ndarray, mode: Mode, *, sign: float, size: float) -> np.ndarray | None:
@@ -134,6 +146,8 @@ def _mass_halves(built, n: int):
     nodes = np.flatnonzero(fm.pos < 0)
     a, b, c, d, e, f = st.M[nodes].T
     blocks = np.stack([np.stack([a, d, e], -1), np.stack([d, b, f], -1), np.stack([e, f, c], -1)], 1)
+    if blocks.size:
+        blocks += FLOOR * np.median(np.stack([a, b, c])) * np.eye(3)
     B = np.linalg.cholesky(blocks)
 
     def half(u: np.ndarray) -> np.ndarray:
