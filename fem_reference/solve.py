@@ -395,7 +395,7 @@ def make_result(problem: DemesProblem, out: Outcome, requested: float, wall: flo
         info["first_contact_prestretch"] = out.first_contact
     if out.snaps:
         info["snaps"] = out.snaps
-    return Result(
+    res = Result(
         solver="fem",
         x=out.y.reshape(-1, 3).copy(),
         x0=problem.X.copy(),
@@ -415,6 +415,8 @@ def make_result(problem: DemesProblem, out: Outcome, requested: float, wall: flo
         point_data={},
         info=info,
     )
+    res.check_crossings(mesh.cells[:, :3], contact_checked=True)  # the path stops at every contact
+    return res
 
 
 def _refinement(scene: Scene, refinement: int | None) -> int:
@@ -475,10 +477,10 @@ def sweep(scene: Scene, prestretches: Sequence[float], refinement: int | None = 
         res.wall_time = time.perf_counter() - t0
         res.info["factorisations"] = factorisation_count(problem.free.size) - factorised  # on this mesh
         if theta is not None:
-            res.info["previous_bending_angle"] = theta  # the angle is continued along the sweep
+            res.continue_from(theta)  # the angle is continued along the sweep
         theta = res.bending_angle
         yield res
-        if not out.converged:
+        if not (out.converged and res.converged):  # also a state whose angle cannot be read
             return
 
 
