@@ -72,6 +72,11 @@ FLAT_ANGLE = 0.01
 """deg: a bending angle within this of 0 is the flat branch (the apex 8 um off the plane for the
 paper's 45 mm height), far below any curl and far above the round-off of a relaxed flat state."""
 
+FLAT_LIFT = 1e-4
+"""A frame nowhere farther than this fraction of its side from the flat plane is on the flat
+branch whatever its angle reads (a frame collapsed in its plane with the apex pulled behind
+the base reads atan2(0, -y) = 180 deg)."""
+
 WHOLE_TURN = 360.0
 """deg: bending angles are read in (-WHOLE_TURN, WHOLE_TURN). The line base -> apex of a frame of
 constant curvature has turned half the frame's turn; at a whole turn the frame has come round
@@ -81,19 +86,21 @@ BRANCHES = ("up", "down", "flat")
 """The branch names: the side of the flat plane the apex went to from the flat state."""
 
 
-def branch(theta: float) -> str:
-    """The branch of a state of bending angle ``theta`` (deg, counted continuously from flat):
-    'up' (apex to +z from the flat state, theta > 0), 'down' (to -z, theta < 0) or 'flat'.
+def branch(theta: float, lift: float = 1.0) -> str:
+    """The branch of a state of bending angle ``theta`` (deg, counted continuously from flat)
+    whose frame is at most ``lift`` (a fraction of the side) from the flat plane: 'up' (the
+    apex went to +z from the flat state, theta > 0), 'down' (to -z, theta < 0) or 'flat'
+    (:data:`FLAT_ANGLE`, :data:`FLAT_LIFT`); 'unknown' for a NaN angle.
 
     The sign of the continuous angle, not of the apex height: a curl past 180 deg has the apex
     below the plane behind the base, and it is still the branch that went up.
 
-    >>> branch(200.0), branch(-30.0), branch(0.0)
-    ('up', 'down', 'flat')
+    >>> branch(200.0), branch(-30.0), branch(0.0), branch(-180.0, lift=0.0)
+    ('up', 'down', 'flat', 'flat')
     """
     if not np.isfinite(theta):
         return "unknown"
-    if abs(theta) < FLAT_ANGLE:
+    if abs(theta) < FLAT_ANGLE or lift < FLAT_LIFT:
         return "flat"
     return "up" if theta > 0 else "down"
 

@@ -104,6 +104,9 @@ class Result:
     blocks: dict[str, CellBlock] = field(default_factory=dict)
     point_data: dict[str, np.ndarray] = field(default_factory=dict)
     info: dict[str, Any] = field(default_factory=dict)
+    # the solver's (converged, status, message) before the angle was read: a second reading (in
+    # a sweep) starts from it; not copied by dataclasses.replace, whose copy is read afresh
+    _before_reading: tuple[bool, str, str] | None = field(default=None, init=False, repr=False, compare=False)
 
     # ----------------------------------------------------------------- frame measures
     def _frame(self) -> tuple[np.ndarray, np.ndarray, float]:
@@ -158,7 +161,12 @@ class Result:
     def branch(self) -> str:
         """'up' or 'down': the side of the flat plane the apex went to from the flat state (the
         sign of the continuous angle), 'flat' on the flat branch (:func:`results.metrics.branch`)."""
-        return metrics.branch(self._continuous_angle())
+        return metrics.branch(self._continuous_angle(), self._lift())
+
+    def _lift(self) -> float:
+        """The frame's largest distance from the flat plane, / side length."""
+        x, _, _ = self._frame()
+        return float(np.abs(x[:, 2]).max() / self.scene.outline.side_length)
 
     @property
     def angle_unreadable(self) -> str | None:
@@ -198,23 +206,25 @@ class Result:
         message says why."""
         if self.scene is None or self.frame_nodes is None:
             return
-        # the solver's own verdict, kept so that a second reading (in a sweep) starts from it
-        self.converged, self.status, self.message = self.info.setdefault(
-            "solver_outcome", (self.converged, self.status, self.message))
+        if self._before_reading is None:
+            self._before_reading = (self.converged, self.status, self.message)
+        self.converged, self.status, self.message = self._before_reading
         theta = self._continuous_angle()
         reason = metrics.unreadable_angle(theta, self.info.get("crossing"))
-        side = metrics.branch(theta)
+        side = metrics.branch(theta, self._lift())
         self.info["branch"], self.info["angle_unreadable"] = side, reason
         lift = self.scene.perturbation.amplitude
-        if lift and side in ("up", "down") and side != ("up" if lift > 0 else "down"):
-            self.message += f"; the apex went {side}, against the scene's lift (perturbation.amplitude = {lift:g} mm)"
+        against = f"; the apex went {side}, against the scene's lift"
+        if lift and side in ("up", "down") and side != ("up" if lift > 0 else "down") and against not in self.message:
+            self.message += f"{against} (perturbation.amplitude = {lift:g} mm)"
         if reason is None:
             return
         if self.converged:
             self.converged, self.status = False, "unreadable"
         words = self.info.get("crossing_where") if reason in ("frame_crossing", "film_crossing") else ""
-        self.message += (f"; the bending angle cannot be read: {words or metrics.UNREADABLE[reason]}"
-                         + (f", reading {theta:.1f} deg" if np.isfinite(theta) else ""))
+        if "the bending angle cannot be read" not in self.message:  # a copy of a state read before
+            self.message += (f"; the bending angle cannot be read: {words or metrics.UNREADABLE[reason]}"
+                             + (f", reading {theta:.1f} deg" if np.isfinite(theta) else ""))
 
     @property
     def mid_height_width(self) -> float:

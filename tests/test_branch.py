@@ -104,6 +104,7 @@ def test_a_frame_collapsed_through_its_base_is_unreadable():
     assert res.info["crossing"] == "frame_crossing"
     assert np.isnan(res.bending_angle) and res.status == "unreadable"
     assert "the frame passes through itself" in res.message
+    assert res.branch == "flat"  # it never left the plane
 
 
 def test_a_reading_past_a_whole_turn_is_unreadable_and_a_sweep_can_read_it_again():
