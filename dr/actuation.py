@@ -108,4 +108,5 @@ def _finish(res: Result, scene: Scene, dm, voltage: float, flat_area: float) -> 
     res.info.update(voltage_V=voltage, capacitor_energy=-e_el + 0.0, electrostatic_energy=e_el,
                     film_area_mm2=area, film_thickness_mm=mounted_thickness(scene) * flat_area / area)
     res.message = f"V = {voltage:g} V: {res.message}"
+    res.check_crossings(dm.model.triangles, contact_checked=dm.contact is not None)
     return res

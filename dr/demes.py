@@ -362,6 +362,7 @@ def solve(scene: Scene, prestretch: float | None = None, x_start: np.ndarray | N
         res.info["asymmetry_mm"] = asym
         if scene.perturbation.asymmetry == 0.0 and asym > 1e-3 * scene.outline.side_length:
             res.message += f"; the mirror symmetry broke (asymmetry {asym:.3g} mm)"
+    res.check_crossings(dm.model.triangles, contact_checked=st.check_contact)
     return res
 
 
@@ -474,7 +475,7 @@ def sweep(scene: Scene, prestretches: Sequence[float], progress: bool = False,
     for lam in sorted(set(float(v) for v in prestretches)):
         res = solve(scene, lam, x_start=x_prev, relift=flat, progress=progress, from_prestretch=lam_prev)
         if theta is not None:
-            res.info["previous_bending_angle"] = theta  # the angle is continued along the sweep
+            res.continue_from(theta)  # the angle is continued along the sweep
         yield res
         if not res.converged:
             return

@@ -9,7 +9,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.spatial import cKDTree
+from results.crossing import closest_frame_approach, segment_distances  # noqa: F401 (re-exported)
 
 
 @dataclass
@@ -29,53 +29,14 @@ class Contact:
                 f"({self.where[0]:.1f}, {self.where[1]:.1f}, {self.where[2]:.1f}) mm)")
 
 
-def segment_distances(p0: np.ndarray, p1: np.ndarray, q0: np.ndarray, q1: np.ndarray
-                      ) -> tuple[np.ndarray, np.ndarray]:
-    """Shortest distances (k,) between segments p0-p1 and q0-q1 (k, 3) and the midpoints of the
-    closest pairs (k, 3)."""
-    d1, d2, r = p1 - p0, q1 - q0, p0 - q0
-    a = np.einsum("ij,ij->i", d1, d1)
-    e = np.einsum("ij,ij->i", d2, d2)
-    f = np.einsum("ij,ij->i", d2, r)
-    c = np.einsum("ij,ij->i", d1, r)
-    b = np.einsum("ij,ij->i", d1, d2)
-    den = a * e - b * b
-    with np.errstate(divide="ignore", invalid="ignore"):
-        s = np.where(den > 1e-14 * a * e, np.clip((b * f - c * e) / den, 0, 1), 0.0)
-        t = (b * s + f) / e
-        s = np.where(t < 0, np.clip(-c / a, 0, 1), np.where(t > 1, np.clip((b - c) / a, 0, 1), s))
-    t = np.clip(t, 0, 1)
-    cp, cq = p0 + s[:, None] * d1, q0 + t[:, None] * d2
-    return np.linalg.norm(cp - cq, axis=1), 0.5 * (cp + cq)
-
-
 def frame_contact(x: np.ndarray, held: np.ndarray, threshold: float) -> Contact | None:
-    """Closest approach of distant segments of the closed frame polyline x (m, 3).
-
-    Contact when the centrelines come closer than ``threshold`` (mm, the strip thickness).
-    Segments that are both held are not compared, nor segments less than pi/2 * threshold apart
-    along the frame: to bring two of its points within ``threshold`` the centreline must turn
-    back at least through a half circle of that diameter, so closer pairs are the rod's own
-    chord, not contact (segments shorter than the thickness, as on fine meshes, would otherwise
-    touch their neighbours' neighbours).
-    """
-    a, b = x, np.roll(x, -1, axis=0)
-    seg_held = held & np.roll(held, -1)
-    lengths = np.linalg.norm(b - a, axis=1)
-    pairs = np.array(sorted(cKDTree(0.5 * (a + b)).query_pairs(lengths.max() + threshold)), dtype=int)
-    if pairs.size == 0:
+    """Closest approach of distant segments of the closed frame polyline x (m, 3): contact when
+    the centrelines come closer than ``threshold`` (mm, the strip thickness); see
+    :func:`results.crossing.closest_frame_approach`."""
+    found = closest_frame_approach(x, held, threshold)
+    if found is None or found[0] >= threshold:
         return None
-    i, j = pairs[:, 0], pairs[:, 1]  # i < j
-    start = np.concatenate([[0.0], np.cumsum(lengths)])  # arc length at each node
-    between = start[j] - start[i + 1]  # the segments strictly between, either way round the frame
-    gap = np.minimum(between, start[-1] - (start[j + 1] - start[i]))
-    keep = (j - i > 1) & (j - i < x.shape[0] - 1) & (gap >= 0.5 * np.pi * threshold) & ~(seg_held[i] & seg_held[j])
-    i, j = i[keep], j[keep]
-    if i.size == 0:
-        return None
-    dist, mid = segment_distances(a[i], b[i], a[j], b[j])
-    k = int(np.argmin(dist))
-    return Contact("frame", float(dist[k]), mid[k]) if dist[k] < threshold else None
+    return Contact("frame", found[0], found[1])
 
 
 def membrane_fold(x: np.ndarray, triangles: np.ndarray, facet_triangles: np.ndarray,

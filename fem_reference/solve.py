@@ -329,10 +329,10 @@ def sweep(scene: Scene, prestretches: Sequence[float], refinement: int | None = 
         res.wall_time = time.perf_counter() - t0
         res.info["factorisations"] = factorisation_count(problem.free.size) - factorised  # on this mesh
         if theta is not None:
-            res.info["previous_bending_angle"] = theta  # the angle is continued along the sweep
+            res.continue_from(theta)  # the angle is continued along the sweep
         theta = res.bending_angle
         yield res
-        if not out.converged:
+        if not (out.converged and res.converged):  # also a state whose angle cannot be read
             return
 
 

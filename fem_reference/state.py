@@ -88,7 +88,7 @@ def make_result(problem: DemesProblem, out: Outcome, requested: float, wall: flo
     mesh = problem.mesh
     if state_scene is None:
         state_scene = scene if lam == scene.prestretch else scene.updated(prestretch=lam)
-    return Result(
+    res = Result(
         solver="fem",
         x=out.y.reshape(-1, 3).copy(),
         x0=problem.X.copy(),
@@ -108,6 +108,8 @@ def make_result(problem: DemesProblem, out: Outcome, requested: float, wall: flo
         point_data={},
         info=_info(problem, out, requested, steps_total, stability, compressed, slack),
     )
+    res.check_crossings(mesh.cells[:, :3], contact_checked=True)  # the path stops at every contact
+    return res
 
 
 def _energy(ev: Evaluation) -> dict[str, float]:

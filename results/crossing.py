@@ -1,9 +1,12 @@
-"""Does a film pass through itself, or a frame through the film? A check on any solver's state.
+"""Does a film pass through itself, or a frame through the film or itself? A check on any
+solver's state.
 
 The film is a triangulated surface (node positions and triangles); the frame a chain of segments.
 Two triangles that share no node cross when an edge of one pierces the other; a frame segment
 crosses the film when it pierces a triangle that none of its nodes belongs to. Only pairs
-closer than the longest triangle edge are tested (a k-d tree on the centroids).
+closer than the longest triangle edge are tested (a k-d tree on the centroids). The frame passes
+through itself where two of its distant segments come closer than half the strip's thickness: a
+strip that only touches itself has its centrelines a thickness apart.
 """
 
 from __future__ import annotations
@@ -29,6 +32,8 @@ class Crossing:
         at = f"near ({p[0]:.1f}, {p[1]:.1f}, {p[2]:.1f}) mm"
         if self.kind == "film":
             return f"the film passes through itself (triangles {self.first} and {self.second}) {at}"
+        if self.kind == "frame_self":
+            return f"the frame passes through itself (segments {self.first} and {self.second}) {at}"
         return f"the frame passes through the film (frame segment {self.first}, triangle {self.second}) {at}"
 
 
@@ -41,7 +46,7 @@ def _pierces(p0: np.ndarray, p1: np.ndarray, a: np.ndarray, b: np.ndarray, c: np
     det = np.einsum("ij,ij->i", e1, h)
     scale = np.linalg.norm(d, axis=1) * np.linalg.norm(e1, axis=1) * np.linalg.norm(e2, axis=1)
     ok = np.abs(det) > 1e-12 * scale
-    with np.errstate(divide="ignore", invalid="ignore"):
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):  # det may be denormal
         inv = np.where(ok, 1.0 / det, 0.0)
         s = p0 - a
         u = inv * np.einsum("ij,ij->i", s, h)
@@ -89,3 +94,72 @@ def film_crossing(x: np.ndarray, triangles: np.ndarray, segments: np.ndarray | N
         n = int(np.flatnonzero(hit)[0])
         return Crossing("frame", int(s_idx[n]), int(t_idx[n]), mid[s_idx[n]])
     return None
+
+
+def segment_distances(p0: np.ndarray, p1: np.ndarray, q0: np.ndarray, q1: np.ndarray
+                      ) -> tuple[np.ndarray, np.ndarray]:
+    """Shortest distances (k,) between segments p0-p1 and q0-q1 (k, 3) and the midpoints of the
+    closest pairs (k, 3)."""
+    d1, d2, r = p1 - p0, q1 - q0, p0 - q0
+    a = np.einsum("ij,ij->i", d1, d1)
+    e = np.einsum("ij,ij->i", d2, d2)
+    f = np.einsum("ij,ij->i", d2, r)
+    c = np.einsum("ij,ij->i", d1, r)
+    b = np.einsum("ij,ij->i", d1, d2)
+    den = a * e - b * b
+    with np.errstate(divide="ignore", invalid="ignore"):
+        s = np.where(den > 1e-14 * a * e, np.clip((b * f - c * e) / den, 0, 1), 0.0)
+        t = (b * s + f) / e
+        s = np.where(t < 0, np.clip(-c / a, 0, 1), np.where(t > 1, np.clip((b - c) / a, 0, 1), s))
+    t = np.clip(t, 0, 1)
+    cp, cq = p0 + s[:, None] * d1, q0 + t[:, None] * d2
+    return np.linalg.norm(cp - cq, axis=1), 0.5 * (cp + cq)
+
+
+def _distant_pairs(x: np.ndarray, held: np.ndarray, threshold: float) -> tuple[np.ndarray, np.ndarray]:
+    """Segment pairs (i, j) of the closed polyline x (m, 3) that may come within ``threshold``
+    mm and are far enough apart along it to count."""
+    a, b = x, np.roll(x, -1, axis=0)
+    seg_held = held & np.roll(held, -1)
+    lengths = np.linalg.norm(b - a, axis=1)
+    pairs = cKDTree(0.5 * (a + b)).query_pairs(lengths.max() + threshold, output_type="ndarray")
+    if pairs.size == 0:
+        return np.zeros(0, np.int64), np.zeros(0, np.int64)
+    pairs = np.sort(pairs, axis=1)
+    i, j = pairs[:, 0], pairs[:, 1]  # i < j
+    start = np.concatenate([[0.0], np.cumsum(lengths)])  # arc length at each node
+    between = start[j] - start[i + 1]  # the segments strictly between, either way round the frame
+    gap = np.minimum(between, start[-1] - (start[j + 1] - start[i]))
+    keep = (j - i > 1) & (j - i < x.shape[0] - 1) & (gap >= 0.5 * np.pi * threshold) & ~(seg_held[i] & seg_held[j])
+    return i[keep], j[keep]
+
+
+def closest_frame_approach(x: np.ndarray, held: np.ndarray, threshold: float
+                           ) -> tuple[float, np.ndarray, int, int] | None:
+    """Closest approach of distant segments of the closed frame polyline x (m, 3): (distance mm,
+    where (3,) mm, segment i, segment j), or None if no pair comes within ``threshold`` mm.
+
+    Segments that are both ``held`` are not compared, nor segments less than pi/2 * threshold
+    apart along the frame: to bring two of its points within ``threshold`` the centreline must
+    turn back at least through a half circle of that diameter, so closer pairs are the rod's own
+    chord, not contact (segments shorter than the thickness, as on fine meshes, would otherwise
+    touch their neighbours' neighbours).
+    """
+    i, j = _distant_pairs(x, held, threshold)
+    if i.size == 0:
+        return None
+    dist, mid = segment_distances(x[i], np.roll(x, -1, axis=0)[i], x[j], np.roll(x, -1, axis=0)[j])
+    k = int(np.argmin(dist))
+    return float(dist[k]), mid[k], int(i[k]), int(j[k])
+
+
+def frame_crossing(x: np.ndarray, thickness: float, held: np.ndarray | None = None) -> Crossing | None:
+    """Where the closed frame polyline x (m, 3) mm passes through itself: two distant segments
+    closer than half the strip ``thickness`` (mm); None if nowhere."""
+    if not np.isfinite(x).all():
+        return None
+    reach = 0.5 * thickness
+    found = closest_frame_approach(x, np.zeros(x.shape[0], bool) if held is None else held, reach)
+    if found is None or found[0] >= reach:
+        return None
+    return Crossing("frame_self", found[2], found[3], found[1])

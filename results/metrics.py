@@ -68,6 +68,73 @@ def outline_bending_angle(x: np.ndarray, s: np.ndarray, outline) -> float:
     return bending_angle(x, s, outline.length, outline.apex_arc_length(), outline.side_length)
 
 
+FLAT_ANGLE = 0.01
+"""deg: a bending angle within this of 0 is the flat branch (the apex 8 um off the plane for the
+paper's 45 mm height), far below any curl and far above the round-off of a relaxed flat state."""
+
+FLAT_LIFT = 1e-4
+"""A frame nowhere farther than this fraction of its side from the flat plane is on the flat
+branch whatever its angle reads (a frame collapsed in its plane with the apex pulled behind
+the base reads atan2(0, -y) = 180 deg)."""
+
+WHOLE_TURN = 360.0
+"""deg: bending angles are read in (-WHOLE_TURN, WHOLE_TURN). The line base -> apex of a frame of
+constant curvature has turned half the frame's turn; at a whole turn the frame has come round
+onto its own base. A reading beyond counts the turns of a path, not where the apex is."""
+
+BRANCHES = ("up", "down", "flat")
+"""The branch names: the side of the flat plane the apex went to from the flat state."""
+
+
+def branch(theta: float, lift: float = 1.0) -> str:
+    """The branch of a state of bending angle ``theta`` (deg, counted continuously from flat)
+    whose frame is at most ``lift`` (a fraction of the side) from the flat plane: 'up' (the
+    apex went to +z from the flat state, theta > 0), 'down' (to -z, theta < 0) or 'flat'
+    (:data:`FLAT_ANGLE`, :data:`FLAT_LIFT`); 'unknown' for a NaN angle.
+
+    The sign of the continuous angle, not of the apex height: a curl past 180 deg has the apex
+    below the plane behind the base, and it is still the branch that went up.
+
+    >>> branch(200.0), branch(-30.0), branch(0.0), branch(-180.0, lift=0.0)
+    ('up', 'down', 'flat', 'flat')
+    """
+    if not np.isfinite(theta):
+        return "unknown"
+    if abs(theta) < FLAT_ANGLE or lift < FLAT_LIFT:
+        return "flat"
+    return "up" if theta > 0 else "down"
+
+
+UNREADABLE = {
+    "not_finite": "the frame's position is not finite",
+    "frame_crossing": "the frame passes through itself",
+    "film_crossing": "the film passes through itself or the frame through the film",
+    "over_a_turn": "the line base -> apex has turned a whole turn or more from flat",
+}
+"""The named reasons a bending angle cannot be read, in words."""
+
+
+def unreadable_angle(theta: float, crossing: str | None = None) -> str | None:
+    """The name (a key of :data:`UNREADABLE`) of why a bending angle ``theta`` (deg, continuous
+    from flat) cannot be read, or None if it can.
+
+    The angle of a state whose frame or film has passed through itself (``crossing``:
+    'frame_crossing' or 'film_crossing', see :mod:`results.crossing`) is not a shape the
+    structure can take, and a turn of a whole turn or more (:data:`WHOLE_TURN`) is no angle of
+    the apex: the turn counted is then an artefact of the path.
+
+    >>> unreadable_angle(365.7), unreadable_angle(-120.0), unreadable_angle(-180.0, "frame_crossing")
+    ('over_a_turn', None, 'frame_crossing')
+    """
+    if not np.isfinite(theta):
+        return "not_finite"
+    if crossing:
+        return crossing
+    if abs(theta) >= WHOLE_TURN:
+        return "over_a_turn"
+    return None
+
+
 def nearest_turn(angle: float, previous: float) -> float:
     """``angle`` (deg) plus the whole turns that bring it nearest ``previous``: a sweep's next
     state is read as the continuation of the one before.

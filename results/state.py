@@ -9,6 +9,7 @@ from typing import Any
 import numpy as np
 
 from . import metrics
+from .crossing import film_crossing, frame_crossing
 from .vtk import CellBlock, write_vtu
 
 ENERGY_KEYS = ("membrane", "frame_bending", "frame_torsion", "frame_axial", "total")
@@ -29,6 +30,8 @@ ENERGY_DEFINITION = (
 SUMMARY_COLUMNS = (
     ("prestretch", "-"),
     ("bending_angle", "deg"),
+    ("branch", "-"),
+    ("angle_unreadable", "-"),
     ("apex_x", "mm"),
     ("apex_y", "mm"),
     ("apex_z", "mm"),
@@ -43,6 +46,7 @@ SUMMARY_COLUMNS = (
     ("iterations", "-"),
     ("residual", "-"),
     ("wall_time", "s"),
+    ("contact_checked", "-"),
     ("converged", "-"),
     ("status", "-"),
     ("message", "-"),
@@ -100,6 +104,9 @@ class Result:
     blocks: dict[str, CellBlock] = field(default_factory=dict)
     point_data: dict[str, np.ndarray] = field(default_factory=dict)
     info: dict[str, Any] = field(default_factory=dict)
+    # the solver's (converged, status, message) before the angle was read: a second reading (in
+    # a sweep) starts from it; not copied by dataclasses.replace, whose copy is read afresh
+    _before_reading: tuple[bool, str, str] | None = field(default=None, init=False, repr=False, compare=False)
 
     # ----------------------------------------------------------------- frame measures
     def frame_arc(self) -> tuple[np.ndarray, np.ndarray, float]:
@@ -131,16 +138,95 @@ class Result:
         self._need_scene()
         return self.frame_point(self.scene.outline.apex_arc_length())[0]
 
+    def _continuous_angle(self) -> float:
+        """The bending angle as read off the frame (deg), before the check that it can be read."""
+        self._need_scene()
+        x, s, _ = self.frame_arc()
+        if not np.isfinite(x).all():
+            return float("nan")
+        theta = metrics.outline_bending_angle(x, s, self.scene.outline)
+        previous = self.info.get("previous_bending_angle")
+        usable = previous is not None and np.isfinite(previous)
+        return metrics.nearest_turn(theta, previous) if usable else theta
+
     @property
     def bending_angle(self) -> float:
         """Bending angle (deg): base midpoint -> apex above the flat plane, in the symmetry plane,
         continuous from the flat state (:func:`results.metrics.bending_angle`); in a sweep, the
-        turn nearest the previous state's angle (``info['previous_bending_angle']``)."""
-        self._need_scene()
-        x, s, _ = self.frame_arc()
-        theta = metrics.outline_bending_angle(x, s, self.scene.outline)
-        previous = self.info.get("previous_bending_angle")
-        return theta if previous is None else metrics.nearest_turn(theta, previous)
+        turn nearest the previous state's angle (``info['previous_bending_angle']``). Positive
+        on the 'up' branch, negative on the 'down' one; NaN where it cannot be read
+        (:attr:`angle_unreadable`)."""
+        theta = self._continuous_angle()
+        return float("nan") if metrics.unreadable_angle(theta, self.info.get("crossing")) else theta
+
+    @property
+    def branch(self) -> str:
+        """'up' or 'down': the side of the flat plane the apex went to from the flat state (the
+        sign of the continuous angle), 'flat' on the flat branch (:func:`results.metrics.branch`)."""
+        return metrics.branch(self._continuous_angle(), self._lift())
+
+    def _lift(self) -> float:
+        """The frame's largest distance from the flat plane, / side length."""
+        x, _, _ = self.frame_arc()
+        return float(np.abs(x[:, 2]).max() / self.scene.outline.side_length)
+
+    @property
+    def angle_unreadable(self) -> str | None:
+        """Why the bending angle cannot be read (a key of :data:`results.metrics.UNREADABLE`), or
+        None."""
+        return metrics.unreadable_angle(self._continuous_angle(), self.info.get("crossing"))
+
+    def check_crossings(self, triangles: np.ndarray | None, contact_checked: bool) -> None:
+        """Look for the frame or film passing through itself and name the state's branch.
+
+        ``triangles`` (t, 3): the film's triangles (node indices into x; None: no film);
+        ``contact_checked``: whether the solver stopped on contact on its way here. Sets
+        ``info['contact_checked']``, ``info['crossing']`` ('frame_crossing', 'film_crossing' or
+        None) with ``info['crossing_where']`` in words, then :meth:`label_angle`.
+        """
+        self.info["contact_checked"] = bool(contact_checked)
+        self.info["crossing"], self.info["crossing_where"] = None, ""
+        if self.frame_nodes is None or self.scene is None:
+            return
+        frame = np.asarray(self.frame_nodes)
+        found = frame_crossing(self.x[frame], self.scene.frame.thickness)
+        if found is None and triangles is not None and len(triangles):
+            found = film_crossing(self.x, triangles, np.stack([frame, np.roll(frame, -1)], axis=1))
+        if found is not None:
+            self.info["crossing"] = "frame_crossing" if found.kind == "frame_self" else "film_crossing"
+            self.info["crossing_where"] = found.describe()
+        self.label_angle()
+
+    def continue_from(self, previous: float) -> None:
+        """Read the angle as the continuation of a sweep's previous state at ``previous`` deg."""
+        self.info["previous_bending_angle"] = previous
+        self.label_angle()
+
+    def label_angle(self) -> None:
+        """Set ``info['branch']`` and ``info['angle_unreadable']``; a converged state whose angle
+        cannot be read is no answer: its status becomes 'unreadable' (not converged), and the
+        message says why."""
+        if self.scene is None or self.frame_nodes is None:
+            return
+        if self._before_reading is None:
+            self._before_reading = (self.converged, self.status, self.message)
+        self.converged, self.status, self.message = self._before_reading
+        theta = self._continuous_angle()
+        reason = metrics.unreadable_angle(theta, self.info.get("crossing"))
+        side = metrics.branch(theta, self._lift())
+        self.info["branch"], self.info["angle_unreadable"] = side, reason
+        lift = self.scene.perturbation.amplitude
+        against = f"; the apex went {side}, against the scene's lift"
+        if lift and side in ("up", "down") and side != ("up" if lift > 0 else "down") and against not in self.message:
+            self.message += f"{against} (perturbation.amplitude = {lift:g} mm)"
+        if reason is None:
+            return
+        if self.converged:
+            self.converged, self.status = False, "unreadable"
+        words = self.info.get("crossing_where") if reason in ("frame_crossing", "film_crossing") else ""
+        if "the bending angle cannot be read" not in self.message:  # a copy of a state read before
+            self.message += (f"; the bending angle cannot be read: {words or metrics.UNREADABLE[reason]}"
+                             + (f", reading {theta:.1f} deg" if np.isfinite(theta) else ""))
 
     @property
     def mid_height_width(self) -> float:
@@ -164,6 +250,8 @@ class Result:
             apex = self.apex
             row.update(
                 bending_angle=self.bending_angle,
+                branch=self.branch,
+                angle_unreadable=self.angle_unreadable or "",
                 apex_x=apex[0],
                 apex_y=apex[1],
                 apex_z=apex[2],
@@ -171,7 +259,7 @@ class Result:
             )
         except ValueError:
             row.update(
-                bending_angle=np.nan, apex_x=np.nan, apex_y=np.nan, apex_z=np.nan,
+                bending_angle=np.nan, branch="", angle_unreadable="", apex_x=np.nan, apex_y=np.nan, apex_z=np.nan,
                 mid_height_width=np.nan,
             )
         for k in ENERGY_KEYS:
@@ -182,6 +270,7 @@ class Result:
             iterations=self.iterations,
             residual=self.residual,
             wall_time=self.wall_time,
+            contact_checked=self.info.get("contact_checked", ""),
             converged=self.converged,
             status=self.status,
             message=self.message,

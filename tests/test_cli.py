@@ -16,6 +16,7 @@ def test_demes_solve_writes_table_csv_and_vtk_series(tmp_path, capsys):
     assert code == 0
     printed = capsys.readouterr().out
     assert "theta[deg]" in printed and "width[mm]" in printed
+    assert "contact checks were off" not in printed
     assert (out / "dr_strip.png").stat().st_size > 0
     with open(out / "dr_strip.csv") as f:
         rows = list(csv.DictReader(f))
@@ -83,3 +84,27 @@ def test_a_repeated_prestretch_is_solved_once(tmp_path, capsys):
     main(["solve", "--prestretch", "1.1", "1.1", "1.0", "--frame-model", "paper", "--set", "mesh.divisions=6", "--out", str(out), "--no-progress"])
     with open(out / "dr_paper.csv") as f:
         assert [float(r["prestretch"]) for r in csv.DictReader(f)] == [1.0, 1.1]
+
+
+def test_demes_solve_without_contact_checks_says_so_and_names_what_it_cannot_read(tmp_path, capsys):
+    """Table I's frame at 6 divisions, contact checks off: flat at 1.2, and at 1.4 its sides have
+    crossed each other (the frame passed through itself, which the checks would have stopped):
+    that state reads 'unreadable', not 93 deg, and the run says once that nothing was checked."""
+    out = tmp_path / "run"
+    code = main(["solve", "--prestretch", "1.2", "1.4", "--set", "mesh.divisions=6", "--set", "dr.check_contact=false",
+                 "--frame-model", "paper", "--out", str(out), "--no-progress"])
+    assert code == 2  # a state without an answer
+    printed = capsys.readouterr().out
+    assert printed.count("contact checks were off") == 1
+    table = printed.splitlines()
+    head = next(i for i, line in enumerate(table) if "theta[deg]" in line)
+    assert "branch" in table[head]
+    last = table[head + 2].split()
+    assert last[1:3] == ["unreadable", "up"] and last[-1] == "unreadable"
+    assert "the bending angle cannot be read: the frame passes through itself" in printed
+    with open(out / "dr_paper.csv") as f:
+        rows = list(csv.DictReader(f))
+    assert [r["branch"] for r in rows] == ["flat", "up"]
+    assert [r["contact_checked"] for r in rows] == ["no", "no"]
+    assert rows[1]["bending_angle [deg]"] == "nan" and rows[1]["angle_unreadable"] == "frame_crossing"
+    assert (rows[1]["status"], rows[1]["converged"]) == ("unreadable", "no")

@@ -29,7 +29,7 @@ settings.register_profile("long", max_examples=500, deadline=None, database=None
 settings.load_profile("long" if os.environ.get("DEMES_FUZZ") == "long" else "ci")
 
 NAMED_STATUSES = {"converged", "max_iterations", "diverged", "not_finite", "self_contact",
-                  "membrane_fold", "film_contact", "unstable", "time_limit", "compression"}
+                  "membrane_fold", "film_contact", "unstable", "time_limit", "compression", "unreadable"}
 
 BASE = scenes.load("demes_paper")
 FIELDS = [f"{key}.{f.name}" for key, section in scenes.Scene.SECTIONS.items()
@@ -56,6 +56,8 @@ def settled(res) -> None:
     if res.converged:
         assert np.all(np.isfinite(res.x)), res.message
         assert all(np.isfinite(v) for v in res.energy.values()), res.message
+        if res.scene is not None:  # a converged state's angle is read, and says which way it went
+            assert np.isfinite(res.bending_angle) and res.info["branch"] in ("up", "down", "flat"), res.message
 
 
 @given(field=st.sampled_from(FIELDS + ["name", "description", "prestretch", "frame.colour"]), value=hostile_values)

@@ -135,6 +135,7 @@ def test_cluster_run_survives_a_killed_worker_and_equals_the_serial_run(serial, 
     pd.testing.assert_frame_equal(comparable(study.table), comparable(serial.table))
     assert (study.table["status"] == "converged").all()
     assert study.table["bending_angle"].between(5, 90).all()  # a curling strip, not a flat state
+    assert (study.table["branch"] == "up").all()  # the way the scene's lift pushed it
     pd.testing.assert_frame_equal(pd.read_parquet(study.files["parquet"]), study.table)
 
     before = {f.key: mtimes(tmp_path, f) for f in g.families}

@@ -315,6 +315,7 @@ def _hard(a: Analysis) -> None:
             a.hard.append({**base, "prestretch": lam, "status": res.status, "converged": res.converged,
                            "iterations": res.iterations, "wall_time": res.wall_time,
                            "bending_angle": res.bending_angle if res.scene else np.nan,
+                           "branch": res.info.get("branch", ""),
                            "shape_rms_vs_fem": rms, "bending_angle_diff_vs_fem": dtheta,
                            "peak_memory": rec.get("peak_memory_mb", np.nan), "message": res.message})
         for lam in not_reached(run.prestretches, list(a.states[run.label])):

@@ -17,7 +17,7 @@ from scenes.scene import prestretch_list
 
 from .executor import DEFAULT_WORKERS
 from .grid import DEFAULT_MAX_POINTS
-from .sweep import print_table, run_sweep, stop_notes
+from .sweep import contact_note, print_table, run_sweep, stop_notes
 
 
 def _parse_value(text: str) -> Any:
@@ -94,7 +94,7 @@ def _run_solver(args: argparse.Namespace, solver: str) -> int:
         label = f"fem_{scene.frame.model}_r{refinement}"
     results = run_sweep(states, lams, out, label, progress=not args.no_progress)
     title = f"{scene.name}: {solver.upper()}, frame model '{scene.frame.model}'"
-    text = print_table(results, title) + stop_notes(results, lams)
+    text = print_table(results, title) + contact_note(results) + stop_notes(results, lams)
     atomic_write_text(out / f"{label}.txt", text + "\n")
     print(f"wrote {out / (label + '.csv')}, {out / (label + '.pvd')} and {len(results)} .vtu states")
     if results:

@@ -138,6 +138,7 @@ HARD = (
     ("iterations", "iterations", "d"),
     ("wall_time", "time [s]", ".3g"),
     ("bending_angle", "theta [deg]", ".2f"),
+    ("branch", "branch", ""),
     ("shape_rms_vs_fem", "DR vs FEM shape RMS [/side]", ".3g"),
     ("message", "message", ""),
 )

@@ -31,7 +31,7 @@ MEASURES = (
 )
 """The measures of each point (:data:`results.SUMMARY_COLUMNS` names and units)."""
 
-COLUMNS = ("prestretch", "status", "converged", *MEASURES, "reached_prestretch", "point", "message")
+COLUMNS = ("prestretch", "status", "converged", "branch", *MEASURES, "reached_prestretch", "point", "message")
 """The table's columns after the swept fields."""
 
 NOT_REACHED = "not_reached"
@@ -116,14 +116,14 @@ def _states(family: Family, scene: Any, prestretches: list[float], folder: Path)
 def _record(family: Family, lam: float, res: Result) -> dict[str, Any]:
     row = res.summary()
     return {
-        **family.fields, "prestretch": lam, **{c: row[c] for c in ("status", "converged", *MEASURES)},
+        **family.fields, "prestretch": lam, **{c: row[c] for c in ("status", "converged", "branch", *MEASURES)},
         "reached_prestretch": res.prestretch, "point": family.key, "message": res.message,
     }
 
 
 def _not_reached(family: Family, lam: float, stop: float) -> dict[str, Any]:
     return {
-        **family.fields, "prestretch": lam, "status": NOT_REACHED, "converged": False,
+        **family.fields, "prestretch": lam, "status": NOT_REACHED, "converged": False, "branch": "",
         **{m: float("nan") for m in MEASURES}, "reached_prestretch": float("nan"), "point": family.key,
         "message": f"not reached: the path stopped on its way to the pre-stretch {stop:g}",
     }

@@ -48,11 +48,25 @@ def run_sweep(
 
 def print_table(results: Sequence[Result], title: str = "") -> str:
     """The state table (as printed by ``demes solve``), returned and printed."""
-    text = format_table([r.summary() for r in results], STATE_TABLE)
+    rows = [r.summary() for r in results]
+    for row in rows:  # a word where the angle cannot be read, not a blank
+        if row.get("angle_unreadable"):
+            row["bending_angle"] = "unreadable"
+    text = format_table(rows, STATE_TABLE)
     if title:
         text = f"{title}\n{text}"
     print(text, flush=True)
     return text
+
+
+def contact_note(results: Sequence[Result]) -> str:
+    """One line if any state was solved without contact checks, printed and returned."""
+    if not any(r.info.get("contact_checked") is False for r in results):
+        return ""
+    line = ("  contact checks were off (dr.check_contact = false): the frame and film were free to pass "
+            "through themselves; states where they did read 'unreadable'")
+    print(line, flush=True)
+    return "\n" + line
 
 
 def stop_notes(results: Sequence[Result], requested: Sequence[float]) -> str:

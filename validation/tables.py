@@ -76,6 +76,7 @@ def format_table(rows: Sequence[dict[str, Any]], columns: Sequence[tuple[str, st
 STATE_TABLE = (
     ("prestretch", "lambda", "level"),
     ("bending_angle", "theta[deg]", ".2f"),
+    ("branch", "branch", ""),
     ("apex_y", "apex_y[mm]", ".2f"),
     ("apex_z", "apex_z[mm]", ".2f"),
     ("mid_height_width", "width[mm]", ".2f"),
