@@ -275,7 +275,8 @@ def solve(scene: Scene, prestretch: float | None = None, x_start: np.ndarray | N
     at 115 % ends twisted at 1.060 N mm from one jump, curled at 1.015 N mm by steps). With
     ``scene.dr.prestretch_step_max`` the steps away from the flat state double after each
     converged step up to it, and a step that stops is retried at half its size from the last
-    converged state. With ``scene.dr.coarse_start`` (triangles at ``fem.refinement >= 1``,
+    converged state. Each converged state near the flat one is checked for stability and, on a
+    saddle, stepped off it along its lowest mode (:mod:`dr.stability`). With ``scene.dr.coarse_start`` (triangles at ``fem.refinement >= 1``,
     from the flat state) the path is followed on refinement 0 and its state, interpolated onto
     the fine mesh, relaxed there at ``scene.dr.tolerance``; if that does not converge the fine
     mesh follows the path by itself.
