@@ -122,7 +122,8 @@ def cmd_solve(args: argparse.Namespace) -> int:
     out = writable_folder(args.out)
     if args.solver == "fem":
         scene = scene.updated(**{"fem.element": args.element})
-        levels = mesh_error.check_levels(args.mesh_levels or mesh_error.FEM_LEVELS)
+        divisions_set = any(item.split("=", 1)[0].strip() == "mesh.divisions" for item in args.set or [])
+        levels = mesh_error.check_levels(args.mesh_levels or mesh_error.fem_default_levels(scene, divisions_set))
         found = mesh_error.fem_levels(scene, lams, levels)
         what = f"FEM {args.element}"
     else:
@@ -294,8 +295,9 @@ def build_parser() -> argparse.ArgumentParser:
                    help="fem (default: the smaller error for the time, docs/performance.md) or dr")
     p.add_argument("--element", choices=("P1", "P2"), default="P2", help="FEM membrane element (default P2)")
     p.add_argument("--mesh-levels", type=int, nargs="+", metavar="DIVISIONS",
-                   help="mesh.divisions of the nested meshes, each twice the one before (default: FEM "
-                        "20 40 80; DR the scene's mesh.divisions and two halvings); one value: no error estimate")
+                   help="mesh.divisions of the nested meshes, each twice the one before (default: FEM 20 40 80, "
+                        "or d 2d 4d after --set mesh.divisions=d; DR the scene's mesh.divisions and two "
+                        "halvings of it); one value: no error estimate")
     p.set_defaults(func=cmd_solve)
     p = sub.add_parser("fem", help="solve a scene with the scikit-fem reference")
     _common(p, "out/fem")

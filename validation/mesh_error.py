@@ -90,6 +90,12 @@ def check_levels(divisions: Sequence[int]) -> list[int]:
     return levels
 
 
+def fem_default_levels(scene: Scene, divisions_set: bool) -> list[int]:
+    """The FEM's meshes: :data:`FEM_LEVELS`, or from mesh.divisions d when it was set: d, 2d, 4d."""
+    d = scene.mesh.divisions
+    return [d, RATIO * d, RATIO**2 * d] if divisions_set else list(FEM_LEVELS)
+
+
 def dr_default_levels(scene: Scene) -> list[int]:
     """DR's meshes: the scene's mesh.divisions and up to two halvings of it."""
     d = scene.mesh.divisions
