@@ -98,7 +98,7 @@ def _run_solver(args: argparse.Namespace, solver: str) -> int:
     atomic_write_text(out / f"{label}.txt", text + "\n")
     print(f"wrote {out / (label + '.csv')}, {out / (label + '.pvd')} and {len(results)} .vtu states")
     if results:
-        _render(results, out / f"{label}.png", f"{scene.name}: {what}, {levels[-1]} divisions")
+        _render(results, out / f"{label}.png", title)
     return 0 if all(r.converged for r in results) else 2
 
 
@@ -149,7 +149,7 @@ def cmd_solve(args: argparse.Namespace) -> int:
     atomic_write_text(out / f"{label}.txt", text + "\n")
     print(f"wrote {out / (label + '.csv')}, {out / (label + '.pvd')} and {len(results)} .vtu states")
     if results:
-        _render(results, out / f"{label}.png", title)
+        _render(results, out / f"{label}.png", f"{scene.name}: {what}, {levels[-1]} divisions")
     return 0 if all(r.converged for r in results) else 2
 
 
