@@ -89,3 +89,8 @@ def test_the_main_job_band_holds_the_committed_reference(outputs):
         ref, ref_err = float(reference[lam]["bending_angle [deg]"]), float(reference[lam]["bending_angle_error [deg]"])
         assert abs(theta - ref) <= err + ref_err, lam
         assert err <= 2.0, lam
+
+
+def test_the_ci_runs_the_readme_test_command():
+    ci = [line for line in (ROOT / ".ci" / "run").read_text().splitlines() if line and not line.startswith(("#", "set ", "cd "))]
+    assert len(ci) == 1 and f"    {ci[0]}\n" in (ROOT / "README.md").read_text()

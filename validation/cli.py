@@ -8,7 +8,7 @@ import json
 import sys
 import tempfile
 from pathlib import Path
-from typing import Any, Sequence
+from typing import Any, Iterator, Sequence
 
 import scenes
 from results import Result, atomic_write_text
@@ -132,7 +132,7 @@ def cmd_solve(args: argparse.Namespace) -> int:
         what = f"DR, membrane net '{scene.dr.membrane_net}'"
     errors: dict[int, mesh_error.MeshError] = {}
 
-    def states():
+    def states() -> Iterator[Result]:
         for me in found:
             errors[id(me.state)] = me
             yield me.state
