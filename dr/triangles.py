@@ -243,7 +243,7 @@ def gradient(X, P, G, D):
     # Everything in this loop is inlined: a row view passed to a compiled call would be
     # reference-counted (atomically) for every triangle, and the corners and forces stay in
     # registers (tuples) rather than scratch arrays. Measured at refinement 1 (4,768 triangles):
-    # 690 -> 180 us per call, with the very same sums (issue 13).
+    # 690 -> 180 us per call, with the very same sums.
     for k in range(idx.shape[0]):
         if par[k, LAW] == LINEAR:
             fmax = max(fmax, _linear_gradient(X, idx[k], grad[k], par[k], G, D))

@@ -8,7 +8,8 @@ The paper's DEMES on a coarse mesh (seconds; continuation from lambda = 1 inside
 >>> res.status, round(res.bending_angle, 1)
 ('converged', 50.3)
 
-``fem_reference.sweep(scene, [1.1, 1.3, 1.5], refinement=1)`` yields a state per pre-stretch;
+``fem_reference.sweep(scene, [1.1, 1.3, 1.5], refinement=1)`` yields a state per pre-stretch
+(``sweep_levels``: with the states of the coarser nested levels along the same path);
 ``fem_reference.convergence_study(scene, 1.3, levels=(0, 1, 2))`` extrapolates the reference
 (docs/fem_reference.md, docs/validation.md).
 
@@ -21,6 +22,6 @@ states, a stop at self-contact, and mesh sequencing for refined levels.
 
 from .convergence import ConvergenceStudy, Estimate, convergence_study, richardson
 from .errors import FEMError
-from .solve import solve, solve_from, sweep
+from .solve import solve, solve_from, sweep, sweep_levels
 
-__all__ = ["solve", "solve_from", "sweep", "convergence_study", "richardson", "ConvergenceStudy", "Estimate", "FEMError"]
+__all__ = ["solve", "solve_from", "sweep", "sweep_levels", "convergence_study", "richardson", "ConvergenceStudy", "Estimate", "FEMError"]

@@ -79,6 +79,14 @@ def _sqrt(a: np.ndarray) -> np.ndarray:
 
 
 @numba.njit(cache=True)
+def _put(out: np.ndarray, s: int, jet: np.ndarray) -> None:
+    """Row s of ``out`` = ``jet``, element by element: a row assignment compiles numpy's shape
+    checks with their error messages, about 3 s of CPU on a fresh cache."""
+    for i in range(jet.size):
+        out[s, i] = jet[i]
+
+
+@numba.njit(cache=True)
 def _reciprocal(a: np.ndarray) -> np.ndarray:
     r = 1.0 / a[0]
     return _apply(a, r, -r * r, 2.0 * r * r * r)
@@ -201,14 +209,14 @@ def vertex_terms(P: np.ndarray, held_a: np.ndarray, held_b: np.ndarray, rest_a: 
             if k0 > 0.0:
                 b = b - 2.0 * k0 * _sqrt(e)
                 b[0] += k0 * k0
-            bending[s] = EI * w * b
+            _put(bending, s, EI * w * b)
         else:
             d0, d1, d2 = k[0] + 0.0, k[1] + 0.0, k[2] + 0.0
             d0[0] -= rest_kappa[s, 0]
             d1[0] -= rest_kappa[s, 1]
             d2[0] -= rest_kappa[s, 2]
-            torsion[s] = GJ * w * _mul(d0, d0)
-            bending[s] = EI * w * _mul(d1, d1) + EI_strong * w * _mul(d2, d2)
+            _put(torsion, s, GJ * w * _mul(d0, d0))
+            _put(bending, s, EI * w * _mul(d1, d1) + EI_strong * w * _mul(d2, d2))
     return kappa, bending, torsion
 
 
@@ -223,7 +231,7 @@ def edge_terms(P: np.ndarray, rest_length: np.ndarray, EA: float, order: int) ->
         d = (x1[0] - x0[0], x1[1] - x0[1], x1[2] - x0[2])
         r = _sqrt(_dot(d, d))
         r[0] -= rest_length[s]
-        out[s] = EA / (2.0 * rest_length[s]) * _mul(r, r)
+        _put(out, s, EA / (2.0 * rest_length[s]) * _mul(r, r))
     return out
 
 

@@ -299,6 +299,28 @@ def sweep(scene: Scene, prestretches: Sequence[float], refinement: int | None = 
         factorisations on this mesh) and ``wall_time`` (including the coarser levels' work) count
         since the previous state.
     """
+    for states in _sweep(scene, prestretches, refinement, every_level=False):
+        yield states[-1]
+
+
+def sweep_levels(scene: Scene, prestretches: Sequence[float], refinement: int | None = None
+                 ) -> Iterator[list[Result]]:
+    """As :func:`sweep`, with the state of every coarser level too: the nested meshes
+    refinement 0 to ``refinement`` along one path, for a mesh convergence estimate per state.
+
+    Yields
+    ------
+    list of Result
+        Per requested pre-stretch, the states of the levels still on their path, coarse to fine
+        (``info['refinement']`` says which); the finest is last and ends the sweep as
+        :func:`sweep`'s does. A coarser level whose path stopped is left out from then on.
+        A coarser state's ``wall_time`` is its own level's work.
+    """
+    yield from _sweep(scene, prestretches, refinement, every_level=True)
+
+
+def _sweep(scene: Scene, prestretches: Sequence[float], refinement: int | None, every_level: bool
+           ) -> Iterator[list[Result]]:
     lams = _check_prestretches(prestretches)
     level = refinement_level(scene, refinement)
     problem = DemesProblem(scene, level, scene.fem.element)
@@ -310,30 +332,43 @@ def sweep(scene: Scene, prestretches: Sequence[float], refinement: int | None = 
     # convergence shrink with h; r0 -> r2 directly took 34 iterations at 1.6 where r1 -> r2 takes
     # a few, and a level costs 4-8x the one below)
     guides = [Continuation(DemesProblem(scene, k, scene.fem.element), deadline) for k in range(level)]
-    steps, theta = 0, None
+    steps = {id(p): 0 for p in (path, *guides)}
+    theta: dict[int, float] = {}
     for lam in lams:
         t0 = time.perf_counter()
         factorised = factorisation_count(problem.free.size)
         snapped = len(path.snaps)
-        below, alive = None, []
+        below, alive, coarse = None, [], []
         for guide in guides:
+            tg = time.perf_counter()
             g_out = guide.advance(lam, _transferred(below, guide.problem))
             below = (guide.problem, g_out.y) if g_out.converged else None
             if g_out.converged:
                 alive.append(guide)  # a level whose path stopped drops out; the next goes on by itself
+            if every_level:
+                steps[id(guide)] += len(g_out.records)
+                coarse.append(_level_result(guide, g_out, lam, time.perf_counter() - tg, steps[id(guide)], theta))
         guides = alive
         out = path.advance(lam, _transferred(below, problem))
         out.snaps = path.snaps[snapped:]
-        steps += len(out.records)
-        res = make_result(problem, out, lam, 0.0, steps)
+        steps[id(path)] += len(out.records)
+        res = _level_result(path, out, lam, 0.0, steps[id(path)], theta)
         res.wall_time = time.perf_counter() - t0
         res.info["factorisations"] = factorisation_count(problem.free.size) - factorised  # on this mesh
-        if theta is not None:
-            res.continue_from(theta)  # the angle is continued along the sweep
-        theta = res.bending_angle
-        yield res
+        yield [*coarse, res]
         if not (out.converged and res.converged):  # also a state whose angle cannot be read
             return
+
+
+def _level_result(path: Continuation, out: Outcome, lam: float, wall: float, steps: int,
+                  theta: dict[int, float]) -> Result:
+    """The Result of one level's state; ``theta`` holds each level's last bending angle (deg),
+    so that the angle is continued along the sweep."""
+    res = make_result(path.problem, out, lam, wall, steps)
+    if id(path) in theta:
+        res.continue_from(theta[id(path)])
+    theta[id(path)] = res.bending_angle
+    return res
 
 
 def _transferred(below: tuple[DemesProblem, np.ndarray] | None, problem: DemesProblem) -> np.ndarray | None:

@@ -11,11 +11,11 @@ from validation.cli import main
 
 def test_demes_solve_writes_table_csv_and_vtk_series(tmp_path, capsys):
     out = tmp_path / "run"
-    code = main(["solve", "--prestretch", "1.0", "1.2", "--set", "mesh.divisions=10",
+    code = main(["solve", "--solver", "dr", "--mesh-levels", "10", "--prestretch", "1.0", "1.2", "--set", "mesh.divisions=10",
                  "--frame-model", "strip", "--out", str(out), "--no-progress"])
     assert code == 0
     printed = capsys.readouterr().out
-    assert "theta[deg]" in printed and "width[mm]" in printed
+    assert "theta[deg]" in printed and "+-[deg]" in printed
     assert "contact checks were off" not in printed
     assert (out / "dr_strip.png").stat().st_size > 0
     with open(out / "dr_strip.csv") as f:
@@ -44,7 +44,7 @@ def test_demes_reports_a_bad_scene_field_without_a_traceback(tmp_path, capsys):
 
 def test_demes_solve_names_the_stop_and_the_levels_it_did_not_reach(tmp_path, capsys):
     out = tmp_path / "run"
-    code = main(["solve", "--prestretch", "1.1", "1.3", "1.5", "--set", "mesh.divisions=12",
+    code = main(["solve", "--solver", "dr", "--mesh-levels", "12", "--prestretch", "1.1", "1.3", "1.5", "--set", "mesh.divisions=12",
                  "--frame-model", "paper", "--out", str(out), "--no-progress"])
     assert code == 2  # not every state converged
     printed = capsys.readouterr().out
@@ -81,7 +81,7 @@ def test_bad_command_lines_give_one_line_and_exit_code_2(tmp_path, capsys):
 
 def test_a_repeated_prestretch_is_solved_once(tmp_path, capsys):
     out = tmp_path / "run"
-    main(["solve", "--prestretch", "1.1", "1.1", "1.0", "--frame-model", "paper", "--set", "mesh.divisions=6", "--out", str(out), "--no-progress"])
+    main(["solve", "--solver", "dr", "--mesh-levels", "6", "--prestretch", "1.1", "1.1", "1.0", "--frame-model", "paper", "--set", "mesh.divisions=6", "--out", str(out), "--no-progress"])
     with open(out / "dr_paper.csv") as f:
         assert [float(r["prestretch"]) for r in csv.DictReader(f)] == [1.0, 1.1]
 
@@ -91,7 +91,7 @@ def test_demes_solve_without_contact_checks_says_so_and_names_what_it_cannot_rea
     crossed each other (the frame passed through itself, which the checks would have stopped):
     that state reads 'unreadable', not 93 deg, and the run says once that nothing was checked."""
     out = tmp_path / "run"
-    code = main(["solve", "--prestretch", "1.2", "1.4", "--set", "mesh.divisions=6", "--set", "dr.check_contact=false",
+    code = main(["solve", "--solver", "dr", "--mesh-levels", "6", "--prestretch", "1.2", "1.4", "--set", "mesh.divisions=6", "--set", "dr.check_contact=false",
                  "--frame-model", "paper", "--out", str(out), "--no-progress"])
     assert code == 2  # a state without an answer
     printed = capsys.readouterr().out

@@ -196,8 +196,9 @@ def _film_cells(path, time: float):
 
 
 @pytest.mark.parametrize("command, label", [
-    (["solve"], "dr_strip"),
-    (["solve", "--set", "dr.membrane_net=links"], "dr_strip"),
+    (["solve", "--solver", "dr", "--mesh-levels", "8"], "dr_strip"),
+    (["solve", "--solver", "dr", "--mesh-levels", "8", "--set", "dr.membrane_net=links"], "dr_strip"),
+    (["solve", "--mesh-levels", "8"], "fem_strip"),
     (["fem", "--set", "fem.element=P2", "--refinement", "0"], "fem_strip_r0"),
 ])
 def test_paraview_reads_the_film_fields_from_the_pvd(tmp_path, capsys, command, label):

@@ -71,7 +71,7 @@ def test_written_files_follow_the_umask(tmp_path, umask, mask, mode):
 def test_demes_solve_output_is_readable_by_others_under_umask_022(tmp_path, umask, capsys):
     umask(0o022)
     out = tmp_path / "run"
-    assert main(["solve", "--prestretch", "1.0", "1.1", "--set", "mesh.divisions=6", "--out", str(out),
+    assert main(["solve", "--solver", "dr", "--mesh-levels", "6", "--prestretch", "1.0", "1.1", "--out", str(out),
                  "--no-progress"]) == 0
     files = sorted(out.iterdir())
     assert {p.suffix for p in files} >= {".csv", ".pvd", ".vtu", ".txt"}

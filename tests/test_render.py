@@ -18,14 +18,14 @@ def test_solve_renders_without_a_display_and_vtk_says_nothing(tmp_path):
     env = {k: v for k, v in os.environ.items() if k not in ("DISPLAY", "WAYLAND_DISPLAY", "VTK_DEFAULT_OPENGL_WINDOW")}
     out = tmp_path / "run"
     proc = subprocess.run(
-        [sys.executable, "-m", "validation.cli", "solve", "--prestretch", "1.0", "1.1", "--set", "mesh.divisions=6",
+        [sys.executable, "-m", "validation.cli", "solve", "--solver", "dr", "--mesh-levels", "6", "--prestretch", "1.0", "1.1",
          "--out", str(out), "--no-progress"],
         env=env, capture_output=True, text=True, timeout=300,
     )
     assert proc.returncode == 0, proc.stderr
     assert proc.stderr == ""
     lines = proc.stdout.splitlines()
-    assert lines[0] == "demes_paper: DR, frame model 'strip'"
+    assert lines[0].startswith("demes_paper: DR, membrane net 'clustered', frame model 'strip', mesh.divisions 6 ")
     assert lines[-1] == f"wrote {out / 'dr_strip.png'}"
     assert not any(word in proc.stdout for word in ("WARN", "X server", "vtk"))
     image = imread(out / "dr_strip.png")[..., :3]

@@ -150,7 +150,7 @@ def test_cluster_run_survives_a_killed_worker_and_equals_the_serial_run(serial, 
 
 
 def test_a_stopped_path_records_why_and_the_pre_stretches_it_did_not_reach(tmp_path):
-    """Table I's beam at 8 divisions folds its membrane on the way to 1.3 (README: it does not
+    """Table I's beam at 8 divisions folds its membrane on the way to 1.3 (docs/elements.md: it does not
     curl): that point keeps its status and where it stopped, in the table and the ParaView
     series; 1.4 is not reached; a rerun solves nothing."""
     g = grid(**{"set": {"frame.model": "paper"}, "product": {"mesh.divisions": [8]}, "prestretch": [1.2, 1.3, 1.4]})

@@ -8,7 +8,7 @@ import json
 import sys
 import tempfile
 from pathlib import Path
-from typing import Any, Sequence
+from typing import Any, Iterator, Sequence
 
 import scenes
 from results import Result, atomic_write_text
@@ -113,7 +113,44 @@ def _render(results: Sequence[Result], path: Path, title: str) -> None:
 
 
 def cmd_solve(args: argparse.Namespace) -> int:
-    return _run_solver(args, "dr")
+    """The main job: a sweep on nested meshes, each state with its discretisation error."""
+    from . import mesh_error
+    from .tables import MESH_ERROR_TABLE
+
+    scene = load_scene(args)
+    lams = _prestretches(args, scene)
+    out = writable_folder(args.out)
+    if args.solver == "fem":
+        scene = scene.updated(**{"fem.element": args.element})
+        divisions_set = any(item.split("=", 1)[0].strip() == "mesh.divisions" for item in args.set or [])
+        levels = mesh_error.check_levels(args.mesh_levels or mesh_error.fem_default_levels(scene, divisions_set))
+        found = mesh_error.fem_levels(scene, lams, levels)
+        what = f"FEM {args.element}"
+    else:
+        levels = mesh_error.check_levels(args.mesh_levels or mesh_error.dr_default_levels(scene))
+        found = mesh_error.dr_levels(scene, lams, levels)
+        what = f"DR, membrane net '{scene.dr.membrane_net}'"
+    errors: dict[int, mesh_error.MeshError] = {}
+
+    def states() -> Iterator[Result]:
+        for me in found:
+            errors[id(me.state)] = me
+            yield me.state
+
+    def columns(res: Result) -> dict[str, Any]:
+        return errors[id(res)].columns()
+
+    label = f"{args.solver}_{scene.frame.model}"
+    results = run_sweep(states(), lams, out, label, progress=not args.no_progress, extra=columns,
+                        units=mesh_error.UNITS)
+    title = (f"{scene.name}: {what}, frame model '{scene.frame.model}', mesh.divisions "
+             f"{' '.join(map(str, levels))} (states on the finest; theta* and +- by Richardson over them)")
+    text = print_table(results, title, MESH_ERROR_TABLE, columns) + stop_notes(results, lams)
+    atomic_write_text(out / f"{label}.txt", text + "\n")
+    print(f"wrote {out / (label + '.csv')}, {out / (label + '.pvd')} and {len(results)} .vtu states")
+    if results:
+        _render(results, out / f"{label}.png", f"{scene.name}: {what}, {levels[-1]} divisions")
+    return 0 if all(r.converged for r in results) else 2
 
 
 def cmd_fem(args: argparse.Namespace) -> int:
@@ -251,8 +288,16 @@ def _cluster_options(p: argparse.ArgumentParser) -> None:
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="demes", description=__doc__)
     sub = parser.add_subparsers(dest="command", required=True)
-    p = sub.add_parser("solve", help="form-find a scene by dynamic relaxation over pre-stretch levels")
+    p = sub.add_parser("solve", help="form-find a scene over pre-stretch levels on nested meshes, each state "
+                                     "with its discretisation error (FEM by default, DR with --solver dr)")
     _common(p, "out/solve")
+    p.add_argument("--solver", choices=("fem", "dr"), default="fem",
+                   help="fem (default: the smaller error for the time, docs/performance.md) or dr")
+    p.add_argument("--element", choices=("P1", "P2"), default="P2", help="FEM membrane element (default P2)")
+    p.add_argument("--mesh-levels", type=int, nargs="+", metavar="DIVISIONS",
+                   help="mesh.divisions of the nested meshes, each twice the one before (default: FEM 20 40 80, "
+                        "or d 2d 4d after --set mesh.divisions=d; DR the scene's mesh.divisions and two "
+                        "halvings of it); one value: no error estimate")
     p.set_defaults(func=cmd_solve)
     p = sub.add_parser("fem", help="solve a scene with the scikit-fem reference")
     _common(p, "out/fem")

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Callable, Iterator, Sequence
+from typing import Any, Callable, Iterator, Sequence
 
 from tqdm import tqdm
 
@@ -19,11 +19,14 @@ def run_sweep(
     label: str,
     progress: bool = True,
     on_state: Callable[[Result], None] | None = None,
+    extra: Callable[[Result], dict[str, Any]] | None = None,
+    units: dict[str, str] | None = None,
 ) -> list[Result]:
     """Consume a solver's sweep, writing each finished state at once.
 
     Each state goes to ``out_dir/label_<prestretch>.vtu``; ``label.csv`` and ``label.pvd`` are
     rewritten (atomically) after every state, so an interrupted sweep keeps what it finished.
+    ``extra(state)`` gives further CSV columns (after the summary's), with ``units``.
     """
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
@@ -36,7 +39,9 @@ def run_sweep(
             entries.append((res.prestretch, vtu))
             results.append(res)
             write_pvd(out / f"{label}.pvd", entries)
-            write_csv(out / f"{label}.csv", [r.summary() for r in results], [c for c, _ in SUMMARY_COLUMNS])
+            rows = [{**r.summary(), **(extra(r) if extra else {})} for r in results]
+            columns = [c for c, _ in SUMMARY_COLUMNS] + [c for c in rows[0] if c not in dict(SUMMARY_COLUMNS)]
+            write_csv(out / f"{label}.csv", rows, columns, units)
             bar.set_postfix_str(f"lambda={level_label(res.prestretch)} theta={res.summary()['bending_angle']:.1f} {res.status}")
             bar.update()
             if on_state is not None:
@@ -46,13 +51,15 @@ def run_sweep(
     return results
 
 
-def print_table(results: Sequence[Result], title: str = "") -> str:
-    """The state table (as printed by ``demes solve``), returned and printed."""
-    rows = [r.summary() for r in results]
+def print_table(results: Sequence[Result], title: str = "", columns: Sequence[tuple[str, str, str]] = STATE_TABLE,
+                extra: Callable[[Result], dict[str, Any]] | None = None) -> str:
+    """The state table (as printed by ``demes fem``; ``demes solve`` adds the mesh error with
+    ``extra``), returned and printed."""
+    rows = [{**r.summary(), **(extra(r) if extra else {})} for r in results]
     for row in rows:  # a word where the angle cannot be read, not a blank
         if row.get("angle_unreadable"):
             row["bending_angle"] = "unreadable"
-    text = format_table(rows, STATE_TABLE)
+    text = format_table(rows, columns)
     if title:
         text = f"{title}\n{text}"
     print(text, flush=True)

@@ -89,4 +89,24 @@ STATE_TABLE = (
     ("wall_time", "time[s]", ".2f"),
     ("status", "status", ""),
 )
-"""The columns ``demes solve`` and ``demes fem`` print."""
+"""The columns ``demes fem`` prints."""
+
+MESH_ERROR_TABLE = (
+    ("prestretch", "lambda", "level"),
+    ("bending_angle", "theta[deg]", ".2f"),
+    ("bending_angle_extrapolated", "theta*[deg]", ".2f"),
+    ("bending_angle_error", "+-[deg]", ".2g"),
+    ("bending_angle_order", "order", ".2f"),
+    ("apex_y", "apex_y[mm]", ".2f"),
+    ("apex_y_error", "+-[mm]", ".2g"),
+    ("apex_z", "apex_z[mm]", ".2f"),
+    ("apex_z_error", "+-[mm]", ".2g"),
+    ("energy_total", "E_tot[Nmm]", ".4g"),
+    ("energy_total_error", "+-[Nmm]", ".2g"),
+    ("iterations", "iter", "d"),
+    ("wall_time", "time[s]", ".1f"),
+    ("status", "status", ""),
+    ("mesh_error", "mesh error", ""),
+)
+"""The columns ``demes solve`` prints: the state on the finest mesh, the extrapolated bending
+angle and the error estimates (validation/mesh_error.py)."""
