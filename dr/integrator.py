@@ -223,7 +223,7 @@ def run(st, P, cfg, fm):
     # Records are unpacked here once: a compiled call that takes a record increments the
     # reference count of each of its arrays (atomically) on entry and decrements it on exit
     # unless numba can prove it needless, which costs about 0.5 us per record per call; the
-    # per-step calls below take arrays or records that numba prunes (issue 13).
+    # per-step calls below take arrays or records that numba prunes (docs/dynamic_relaxation.md, "Reference counting").
     n = P.n
     X, V, R, G, D = st.X, st.V, st.R, st.G, st.D
     loads, free, watched, segments = st.loads, st.free, st.watched, st.segments

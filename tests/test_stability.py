@@ -59,3 +59,17 @@ def test_the_flat_demes_is_a_saddle_that_dr_leaves_apex_up():
     assert left.energy["total"] < flat.energy["total"]
     after = stability.lowest_mode(model, left.x)
     assert after.found and after.eigenvalue > stability.NEUTRAL
+
+
+@pytest.mark.slow
+def test_the_fine_link_net_solved_to_130_percent_in_one_call_ends_curled():
+    """56 divisions, the link net, 1.0 -> 1.3 in one call: every nearly flat state on the way is
+    relaxed to the full tolerance and checked for stability, so the path does not pile the load
+    up on the flat saddle and snap to the low state; it ends curled, apex up, near the angle
+    the 28-division net reaches (the same model, a coarser lattice)."""
+    fine = dr.solve(scenes.paper_demes(1.3, "strip", **{"mesh.divisions": 56, "dr.membrane_net": "links"}))
+    assert fine.converged, fine.message
+    assert fine.info["branch"] == "up"
+    coarse = dr.solve(scenes.paper_demes(1.3, "strip", **{"mesh.divisions": 28, "dr.membrane_net": "links"}))
+    assert coarse.converged and coarse.info["branch"] == "up"
+    assert abs(fine.bending_angle - coarse.bending_angle) < 10.0

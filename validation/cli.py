@@ -145,7 +145,7 @@ def cmd_solve(args: argparse.Namespace) -> int:
                         units=mesh_error.UNITS)
     title = (f"{scene.name}: {what}, frame model '{scene.frame.model}', mesh.divisions "
              f"{' '.join(map(str, levels))} (states on the finest; theta* and +- by Richardson over them)")
-    text = print_table(results, title, MESH_ERROR_TABLE, columns) + stop_notes(results, lams)
+    text = print_table(results, title, MESH_ERROR_TABLE, columns) + contact_note(results) + stop_notes(results, lams)
     atomic_write_text(out / f"{label}.txt", text + "\n")
     print(f"wrote {out / (label + '.csv')}, {out / (label + '.pvd')} and {len(results)} .vtu states")
     if results:
