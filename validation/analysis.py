@@ -3,7 +3,7 @@ error budget and hard cases. Everything here reads stored states; nothing is sol
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from itertools import takewhile
 from pathlib import Path
 from typing import Any, Sequence
@@ -214,10 +214,16 @@ def _difference(x: Result | None, y: Result | None) -> tuple[float, float]:
     return rms, x.bending_angle - y.bending_angle
 
 
+def _mirror(state: Result | None) -> Result | None:
+    """The state reflected in the flat plane (z -> -z): an equilibrium of the same energy."""
+    return None if state is None else replace(state, x=state.x * np.array([1.0, 1.0, -1.0]))
+
+
 def _second_states(a: Analysis) -> None:
     """Each state the at-once search found, beside the path's state at its pre-stretch (DR
     matched: the same discrete problem); a second stable state is converged, stable and more
-    than SECOND_STATE from the path's."""
+    than SECOND_STATE from the path's state and from its mirror image in the flat plane (the
+    same state curled the other way, of the same energy)."""
     for run in a.plan.by_group("second"):
         for lam, found in sorted(a.states[run.label].items()):
             path = a.states["dr_matched"].get(lam)
@@ -227,11 +233,13 @@ def _second_states(a: Analysis) -> None:
                    "theta_dr_at_once": found.info.get("dr_bending_angle", np.nan)}
             if found.converged:
                 rms, _ = _difference(found, path)
+                mirrored, _ = _difference(found, _mirror(path))
                 row.update(theta_found=found.bending_angle, energy_found=found.energy["total"],
                            energy_gap=found.energy["total"] - row["energy_path"], shape_distance=rms,
-                           stable=bool(found.info.get("stable")),
+                           mirror_distance=mirrored, stable=bool(found.info.get("stable")),
                            lowest_eigenvalue=found.info.get("lowest_eigenvalue_N_per_mm3", np.nan))
-                row["second_state"] = bool(row["stable"] and rms > SECOND_STATE)
+                row["mirror_of_path"] = bool(mirrored <= SECOND_STATE)
+                row["second_state"] = bool(row["stable"] and rms > SECOND_STATE and not row["mirror_of_path"])
             a.second_states.append(row)
 
 

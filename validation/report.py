@@ -81,6 +81,7 @@ SECOND = (
     ("energy_found", "polished: energy [N mm]", ".4g"),
     ("energy_gap", "energy above the path's [N mm]", ".3g"),
     ("shape_distance", "distance [/side]", ".3g"),
+    ("mirror_distance", "from the path's mirror image [/side]", ".3g"),
     ("stable", "stable", ""),
     ("lowest_eigenvalue", "lowest eigenvalue [N/mm^3]", ".3g"),
     ("second_state", "second stable state", ""),
@@ -206,6 +207,10 @@ def _findings(a: Analysis) -> list[str]:
             f"path's {r['theta_path']:.1f} deg" for r in second) + ".")
     elif a.second_states:
         out.append(f"The search for second stable states found none at {len(a.second_states)} pre-stretch levels.")
+    mirrors = [level_label(r["prestretch"]) for r in a.second_states if r.get("mirror_of_path")]
+    if mirrors:
+        out.append(f"Applied at once, DR ended on the path's state curled the other way (its mirror image in the "
+                   f"flat plane, the same energy) at {', '.join(mirrors)}.")
     if a.resolved:
         out.append(f"Runs solved again because the states on disk were made with another scene, settings or "
                    f"code version: {', '.join(a.resolved)}.")
