@@ -2,10 +2,17 @@
 
 from __future__ import annotations
 
+import numpy as np
 from numba import njit
 
 from .links import tension
 from .vec import add_to, get, norm, scale, sub
+
+
+def lengths(X: np.ndarray, P) -> np.ndarray:
+    """Length of each clustered cable at positions X (n, 3) mm, the sum of its segments, mm."""
+    seg = np.linalg.norm(X[P.clu_seg[:, 1]] - X[P.clu_seg[:, 0]], axis=1)
+    return np.bincount(P.clu_seg_cluster, weights=seg, minlength=P.clu_L0.size)
 
 
 @njit(cache=True, error_model="numpy")

@@ -3,7 +3,7 @@ the FEM's mesh (``dr.membrane_net = "triangles"``); ``solve`` one state, ``sweep
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Iterator, Sequence
 
 import numpy as np
@@ -16,8 +16,10 @@ from scenes.mesh import membrane_mesh, transfer_linear
 from scenes.scene import prestretch_value
 
 from .contact import FilmCrossing, FrameContact, MembraneFold
-from .film_cells import cluster_strains, film_surface
+from .clusters import lengths as cable_lengths
+from .film_cells import film_surface
 from .kernels import place_virtual
+from .links import lengths as link_lengths, tensions
 from .model import Model
 from .net import Net, build_net
 from . import stability
@@ -153,14 +155,12 @@ def paper_formula_membrane_energy(model: Model, x: np.ndarray) -> float:
     X = np.vstack([x, np.zeros((P.n_total - P.n, 3))])
     place_virtual(X, P)
     mem = ~P.link_frame
-    i, j = P.link_ij[mem].T
-    L = np.linalg.norm(X[j] - X[i], axis=1)
-    L0 = P.link_L0[mem]
+    L, L0 = link_lengths(X, P)[mem], P.link_L0[mem]
     eps = (L - L0) / L0
-    N = np.where(P.link_tension_only[mem] & (eps < 0), 0.0, P.link_EA[mem] * eps)
-    eps_c = cluster_strains(P, X)
-    Lc = P.clu_L0 * (1.0 + eps_c)
-    Nc = np.where(P.clu_tension_only & (eps_c < 0), 0.0, P.clu_EA * eps_c)
+    N = tensions(P.link_EA[mem], L0, L, P.link_tension_only[mem])
+    Lc = cable_lengths(X, P)
+    eps_c = (Lc - P.clu_L0) / P.clu_L0
+    Nc = tensions(P.clu_EA, P.clu_L0, Lc, P.clu_tension_only)
     # the row of triangles at the bond line is no tension element: its exact energy is added
     return float(0.5 * (np.sum(N * eps * L) + np.sum(Nc * eps_c * Lc)) + triangle_energy(X, P))
 
@@ -295,6 +295,51 @@ def solve(scene: Scene, prestretch: float | None = None, x_start: np.ndarray | N
     """
     lam = scene.prestretch if prestretch is None else float(prestretch)
     dm = build(scene, lam)
+    runs = _relaxations(scene, dm, lam, x_start=x_start, relift=relift, from_prestretch=from_prestretch,
+                        progress=progress)
+    return _path_result(scene, dm, runs, requested=lam)
+
+
+@dataclass(frozen=True)
+class PathRuns:
+    """The relaxations that reached a state of :func:`solve`, in order."""
+
+    runs: list[Result]  # every relaxation: their iterations and times add up
+    path: list[float]  # the pre-stretch levels tried, the last one the state's
+    coarse: Result | None  # the state on refinement 0 the fine mesh started from (None: no such start)
+    coarse_failed: Result | None  # the fine mesh's relaxation from it, where it did not converge
+
+    @property
+    def iterations(self) -> int:
+        return sum(r.iterations for r in self.runs)
+
+    @property
+    def wall_time(self) -> float:
+        """s"""
+        return sum(r.wall_time for r in self.runs)
+
+    def history(self) -> np.ndarray:
+        """The residual histories end to end (k, 2), iterations counted from the first run's start."""
+        parts, done = [], 0
+        for r in self.runs:
+            if r.residual_history.size:
+                parts.append(r.residual_history + np.array([[done, 0.0]]))
+            done += r.iterations
+        return np.vstack(parts) if parts else self.runs[-1].residual_history
+
+
+def _relax_settings(scene: Scene, dm: DemesModel) -> dict:
+    """The settings of every :func:`dr.relax` call of a path but its tolerance and start."""
+    st = scene.dr
+    force_scale = 0.01 * scene.membrane.E * dm.cable_area  # a cable at 1 % strain
+    return dict(mass_safety=st.mass_safety, max_iterations=st.max_iterations, contact=dm.contact,
+                final_checks=dm.final_checks, force_scale=force_scale, damping=st.damping, masses=st.masses)
+
+
+def _relaxations(scene: Scene, dm: DemesModel, lam: float, *, x_start: np.ndarray | None, relift: bool,
+                 from_prestretch: float, progress: bool) -> PathRuns:
+    """Relax ``dm`` to pre-stretch ``lam`` as :func:`solve` says: from refinement 0's state, or
+    along the pre-stretch path."""
     st = scene.dr
     coarse = None
     if x_start is None and st.coarse_start and st.membrane_net == "triangles" and scene.fem.refinement > 0:
@@ -303,11 +348,8 @@ def solve(scene: Scene, prestretch: float | None = None, x_start: np.ndarray | N
         x_start = dm.start
     elif relift:
         x_start = x_start + (dm.start - dm.model.nodes)
-    force_scale = 0.01 * scene.membrane.E * dm.cable_area  # a cable at 1 % strain
-    settings = dict(mass_safety=st.mass_safety, max_iterations=st.max_iterations, contact=dm.contact,
-                    final_checks=dm.final_checks, force_scale=force_scale, damping=st.damping,
-                    masses=st.masses)
-    runs: list[Result] = []  # every relaxation, in order (their iterations and times add up)
+    settings = _relax_settings(scene, dm)
+    runs: list[Result] = []
     path, coarse_failed = [lam], None
     if coarse is not None:
         runs.append(coarse)
@@ -317,54 +359,65 @@ def solve(scene: Scene, prestretch: float | None = None, x_start: np.ndarray | N
         coarse_failed = None if runs[-1].converged else runs[-1]
     if coarse is None or coarse_failed is not None:
         path = _follow_path(scene, dm, x_start, from_prestretch, lam, runs, relax_with=settings, progress=progress)
-    res = runs[-1]
-    iterations = sum(r.iterations for r in runs)
-    wall = sum(r.wall_time for r in runs)
-    history, done = [], 0
-    for r in runs:
-        if r.residual_history.size:
-            history.append(r.residual_history + np.array([[done, 0.0]]))
-        done += r.iterations
-    current = path[-1]
-    res.iterations, res.wall_time = iterations, wall
-    res.residual_history = np.vstack(history) if history else res.residual_history
+    return PathRuns(runs, path, coarse, coarse_failed)
+
+
+def _path_result(scene: Scene, dm: DemesModel, runs: PathRuns, *, requested: float) -> Result:
+    """The Result of the state the last relaxation of ``runs`` reached, with the whole path's
+    iterations, time and residual history, the scene at the pre-stretch reached, and the DEMES
+    measures (slack areas, the paper's energy formula, the asymmetry, crossings)."""
+    last, reached = runs.runs[-1], runs.path[-1]
     # a path that stopped on the way is reported where it stopped, not where it was headed
-    res.scene = scene if current == scene.prestretch else scene.updated(prestretch=current)
-    res.prestretch = current
-    res.frame_nodes = dm.frame_nodes
-    res.frame_s = dm.frame_s
-    res.message = f"lambda = {current:.3f}: {res.message}"
-    if coarse is not None:
-        res.message += (f" (started from refinement 0's state, {coarse.iterations} of the iterations there)"
-                        if coarse_failed is None else f" (the start from refinement 0 failed: {coarse_failed.message})")
-    if len(path) > 1:
-        res.message += f" (pre-stretch step {len(path)}; {iterations} iterations in all)"
-    if current < lam:
-        res.message += f"; the requested lambda = {lam:.3f} was not reached"
-    res.info.update(
+    state_scene = scene if reached == scene.prestretch else scene.updated(prestretch=reached)
+    message = _path_message(last.message, runs, requested=requested)
+    info = {**last.info, **_model_info(scene, dm, runs)}
+    info["slack_area_fraction_any"], info["slack_area_fraction_full"] = slack_fractions(dm, last)
+    if dm.net is not None:  # the formula is a sum over tension elements: the nets only
+        info["energy_membrane_paper_formula"] = paper_formula_membrane_energy(dm.model, last.x)
+    if dm.mirror is not None:
+        asym = asymmetry(last.x, dm.mirror)
+        info["asymmetry_mm"] = asym
+        if scene.perturbation.asymmetry == 0.0 and asym > 1e-3 * scene.outline.side_length:
+            message += f"; the mirror symmetry broke (asymmetry {asym:.3g} mm)"
+    res = replace(
+        last, iterations=runs.iterations, wall_time=runs.wall_time, residual_history=runs.history(),
+        scene=state_scene, prestretch=reached, frame_nodes=dm.frame_nodes, frame_s=dm.frame_s, message=message,
+        blocks={**last.blocks, "membrane_surface": film_surface(dm.model, last.x, state_scene)}, info=info,
+    )
+    res.check_crossings(dm.model.triangles, contact_checked=scene.dr.check_contact)
+    return res
+
+
+def _path_message(message: str, runs: PathRuns, *, requested: float) -> str:
+    """The last relaxation's ``message`` with the pre-stretch reached and how the path got there."""
+    reached = runs.path[-1]
+    message = f"lambda = {reached:.3f}: {message}"
+    if runs.coarse is not None:
+        message += (f" (started from refinement 0's state, {runs.coarse.iterations} of the iterations there)"
+                    if runs.coarse_failed is None
+                    else f" (the start from refinement 0 failed: {runs.coarse_failed.message})")
+    if len(runs.path) > 1:
+        message += f" (pre-stretch step {len(runs.path)}; {runs.iterations} iterations in all)"
+    if reached < requested:
+        message += f"; the requested lambda = {requested:.3f} was not reached"
+    return message
+
+
+def _model_info(scene: Scene, dm: DemesModel, runs: PathRuns) -> dict:
+    """The DR model's sizes and the path's length for ``Result.info``."""
+    return dict(
         n_nodes=dm.model.n,
         n_frame_nodes=dm.frame_nodes.size,
         n_cables=len(dm.net.cables) if dm.net is not None else 0,
         n_triangles=int(dm.model.triangles.shape[0]) if dm.net is None else 0,
         spacing_mm=dm.spacing,
         cable_area_mm2=dm.cable_area,
-        membrane_net=st.membrane_net,
+        membrane_net=scene.dr.membrane_net,
         frame_model=scene.frame.model,
-        prestretch_steps=len(path),
-        coarse_iterations=coarse.iterations if coarse is not None else 0,
-        reached_prestretch=current,
+        prestretch_steps=len(runs.path),
+        coarse_iterations=runs.coarse.iterations if runs.coarse is not None else 0,
+        reached_prestretch=runs.path[-1],
     )
-    res.blocks["membrane_surface"] = film_surface(dm.model, res.x, res.scene)
-    res.info["slack_area_fraction_any"], res.info["slack_area_fraction_full"] = slack_fractions(dm, res)
-    if dm.net is not None:  # the formula is a sum over tension elements: the nets only
-        res.info["energy_membrane_paper_formula"] = paper_formula_membrane_energy(dm.model, res.x)
-    if dm.mirror is not None:
-        asym = asymmetry(res.x, dm.mirror)
-        res.info["asymmetry_mm"] = asym
-        if scene.perturbation.asymmetry == 0.0 and asym > 1e-3 * scene.outline.side_length:
-            res.message += f"; the mirror symmetry broke (asymmetry {asym:.3g} mm)"
-    res.check_crossings(dm.model.triangles, contact_checked=st.check_contact)
-    return res
 
 
 def _follow_path(scene: Scene, dm: DemesModel, x_start: np.ndarray, start: float, stop: float,

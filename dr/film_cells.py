@@ -14,6 +14,7 @@ import numpy as np
 from results import CellBlock
 from results.film import LATTICE_ANGLES_DEG, FilmLaw, film_fields, triangle_gradients
 
+from .clusters import lengths as cable_lengths
 from .kernels import Packed
 from .model import Model
 
@@ -24,9 +25,7 @@ _PARALLEL = 1e-6
 def cluster_strains(P: Packed, x: np.ndarray) -> np.ndarray:
     """Strain (L - L0) / L0 of each clustered cable at positions x (n, 3) mm, its length L the
     sum of its segments."""
-    seg = np.linalg.norm(x[P.clu_seg[:, 1]] - x[P.clu_seg[:, 0]], axis=1)
-    length = np.bincount(P.clu_seg_cluster, weights=seg, minlength=P.clu_L0.size)
-    return (length - P.clu_L0) / P.clu_L0
+    return (cable_lengths(x, P) - P.clu_L0) / P.clu_L0
 
 
 def _edge_family_strains(model: Model, P: Packed, x: np.ndarray) -> np.ndarray:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import numpy as np
 from numba import njit
 
 from .blocks import add_block
@@ -14,6 +15,22 @@ def tension(EA, L0, L, tension_only):
     t = EA / L0 * (L - L0)
     if tension_only and t < 0.0:
         return 0.0
+    return t
+
+
+def lengths(X: np.ndarray, P) -> np.ndarray:
+    """Length of each link at positions X (n_total, 3) mm, mm."""
+    i, j = P.link_ij.T
+    return np.linalg.norm(X[j] - X[i], axis=1)
+
+
+@njit(cache=True, error_model="numpy")
+def tensions(EA, L0, L, tension_only):
+    """:func:`tension` of each of a set of elements (links, or clustered cables of total length
+    L), N: the law's one writing serves the kernels and the reported forces."""
+    t = np.empty(L.shape[0])
+    for k in range(L.shape[0]):
+        t[k] = tension(EA[k], L0[k], L[k], tension_only[k])
     return t
 
 

@@ -4,7 +4,8 @@ from __future__ import annotations
 
 
 import time
-from typing import Callable, Sequence
+from dataclasses import dataclass
+from typing import Callable, NamedTuple, Sequence
 
 import numpy as np
 from tqdm import tqdm
@@ -14,7 +15,10 @@ from results import CellBlock, Result
 from . import integrator as itg
 from .contact import FrameContact
 from .errors import DRError
-from .masses import masses_at, unresisted
+from .clusters import lengths as cable_lengths
+from .frame_mass import FrameMass
+from .links import lengths as link_lengths, tensions as link_tensions
+from .masses import Masses, masses_at, unresisted
 from .stability import potential_energy
 from .beams import curvatures
 from .damping import SCHEMES
@@ -137,6 +141,53 @@ def relax(
         Bad settings, or start positions that give no finite force (coincident nodes of a
         link, cable or beam, a strip orientation node on its edge's line: named).
     """
+    _check_settings(model, tol=tol, mass_safety=mass_safety, max_iterations=max_iterations, masses=masses,
+                    damping=damping)
+    t0 = time.perf_counter()
+    positions = "start" if x_start is not None else "reference"
+    P = model.pack()
+    X = _start_positions(model, P, x_start, positions=positions)
+    built = _build_masses(model, P, X, kind=masses, safety=mass_safety, contact=contact, positions=positions)
+    P, st, fm = built.P, built.state, built.frame
+    cfg = _loop_settings(X, P, model.loads, tol=tol, mass_safety=mass_safety, chunk=chunk, damping=damping,
+                         contact=contact, force_scale=force_scale)
+    unresisted(itg.start(st, P, fm, cfg.half_safety), "after the first step")
+    # measured after the first step, as every energy the divergence check compares with it
+    stops = _Stops(contact=contact, final_checks=final_checks, e_start=potential_energy(X, P, model.loads),
+                   loads=model.loads, mass_safety=mass_safety, max_iterations=max_iterations, chunk=chunk, tol=tol)
+    run = _run_chunks(st, P, fm, cfg, stops, progress=progress)
+    info = {"ke_peaks": run.peaks, "mass_safety": mass_safety, "masses": built.kind, "damping": damping,
+            "frame_mass_nodes": int(fm.nodes.size)}
+    return make_result(model, P, X, run, wall_time=time.perf_counter() - t0, info=info)
+
+
+class Run(NamedTuple):
+    """How a relaxation's time loop ended (:func:`_run_chunks`)."""
+
+    status: str  # 'converged', 'max_iterations', 'diverged', 'not_finite', 'self_contact' or a check's
+    message: str
+    iterations: int
+    history: np.ndarray  # (k, 2): iteration and relative residual at each chunk end
+    peaks: int  # kinetic-energy peaks
+
+
+@dataclass(frozen=True)
+class _Stops:
+    """What ends a run besides convergence (see :func:`relax` for each)."""
+
+    contact: FrameContact | None
+    final_checks: Sequence[Check]
+    e_start: float  # potential energy after the first step, N mm
+    loads: np.ndarray  # (n, 3) N
+    mass_safety: float
+    max_iterations: int
+    chunk: int
+    tol: float
+
+
+def _check_settings(model: Model, *, tol: float, mass_safety: float, max_iterations: int, masses: str,
+                    damping: str) -> None:
+    """Raise DRError for a bad setting of :func:`relax` or a model without supports."""
     if not (np.isfinite(tol) and tol > 0):
         raise DRError(f"tol = {tol!r} must be a positive number (relative residual, e.g. 1e-6)")
     if not (np.isfinite(mass_safety) and mass_safety > 0):
@@ -152,8 +203,11 @@ def relax(
             "the model has no supports: it can move as a rigid body; pin some nodes with "
             "model.support(indices) or model.clamp(i, tangent)"
         )
-    t0 = time.perf_counter()
-    P = model.pack()
+
+
+def _start_positions(model: Model, P: Packed, x_start: np.ndarray | None, *, positions: str) -> np.ndarray:
+    """Positions (n_total, 3) mm of the real nodes at ``x_start`` (None: the reference geometry),
+    the virtual ones zero. Raises DRError for a wrong shape or degenerate elements."""
     n = P.n
     X = np.zeros((P.n_total, 3))
     if x_start is None:
@@ -163,57 +217,71 @@ def relax(
         if xs.shape != (n, 3) or not np.all(np.isfinite(xs)):
             raise DRError(f"x_start must be a finite ({n}, 3) array of positions (mm)")
         X[:n] = xs
-    loads = model.loads
-    positions = "start" if x_start is not None else "reference"
     degenerate = degenerate_elements(X, P)
     if degenerate:
         raise DRError(f"the {positions} positions are degenerate: {'; '.join(degenerate)}; move the nodes apart")
-    watched = np.zeros(n, dtype=bool)
-    segments, closed, distance = np.zeros((0, 2), np.int64), False, 0.0
+    return X
+
+
+def _build_masses(model: Model, P: Packed, X: np.ndarray, *, kind: str, safety: float,
+                  contact: FrameContact | None, positions: str) -> Masses:
+    """The time loop's state at X with its masses (:func:`dr.masses.masses_at`), the contact
+    check's nodes watched. Raises DRError where the start gives a non-finite force or mass."""
+    watched = np.zeros(P.n, dtype=bool)
+    segments = np.zeros((0, 2), np.int64)
     if contact is not None:
         watched[contact.nodes] = True
-        segments, closed, distance = contact.segments, contact.closed, contact.distance
-    built = masses_at(model, P, X, masses, mass_safety, watched, segments)
-    P, st, fm, masses = built.P, built.state, built.frame, built.kind
+        segments = contact.segments
+    built = masses_at(model, P, X, kind, safety, watched, segments)
+    st = built.state
     if not (np.isfinite(st.R).all() and np.isfinite(st.Minv).all()):
         raise DRError(
-            f"the {positions} positions give a non-finite force or mass, first at {where_not_finite(X, st.R, P)}; "
-            "look for coincident nodes or stiffnesses so large that they overflow"
+            f"the {positions} positions give a non-finite force or mass, first at "
+            f"{where_not_finite(X, st.R, built.P)}; look for coincident nodes or stiffnesses so large that they overflow"
         )
-    runaway = max(float(np.linalg.norm(np.ptp(X[:n], axis=0))), 1e-9)
-    cfg = itg.Settings(
+    return built
+
+
+def _loop_settings(X: np.ndarray, P: Packed, loads: np.ndarray, *, tol: float, mass_safety: float, chunk: int,
+                   damping: str, contact: FrameContact | None, force_scale: float) -> itg.Settings:
+    """The time loop's settings at the start positions X (n_total, 3) mm."""
+    closed, distance = (contact.closed, contact.distance) if contact is not None else (False, 0.0)
+    edge = _shortest_edge(X, P)
+    return itg.Settings(
         damping=SCHEMES[damping], half_safety=0.5 * mass_safety, max_steps=int(chunk), closed=bool(closed),
         contact_distance=float(distance), tol=float(tol), force_floor=_force_floor(X, P, loads, tol, force_scale),
-        runaway=runaway, mass_every=MASS_EVERY,
-        drift=DRIFT_TURN * _shortest_edge(X, P), frame_drift=FRAME_DRIFT * _shortest_edge(X, P),
-        frame_turn=FRAME_TURN,
+        runaway=max(float(np.linalg.norm(np.ptp(X[: P.n], axis=0))), 1e-9), mass_every=MASS_EVERY,
+        drift=DRIFT_TURN * edge, frame_drift=FRAME_DRIFT * edge, frame_turn=FRAME_TURN,
     )
-    unresisted(itg.start(st, P, fm, cfg.half_safety), "after the first step")
 
-    e_start = potential_energy(X, P, loads)
 
-    def diverging() -> str | None:
-        """Why the run is unstable (energy rising), or None."""
-        e_now = potential_energy(X, P, loads)
-        rise = e_now - e_start
-        if not np.isfinite(rise) or rise <= ENERGY_RISE * max(abs(e_start), abs(e_now), 1e-300):
-            return None  # a NaN energy is named 'not_finite' when the result is made
-        return (f"the energy rose from {e_start:.4g} to {e_now:.4g} N mm, which damping cannot do: "
-                f"the time step is unstable with mass_safety = {mass_safety:g}; raise it (f >= 1 is "
-                "stable, 2 is safe)")
+def _chunk(st: itg.State, P: Packed, fm: FrameMass, cfg: itg.Settings) -> tuple[int, int, int, float, float]:
+    """One chunk of the time loop: (stop code, steps, kinetic-energy peaks, largest element
+    force N, largest residual N) as :func:`dr.integrator.run` returns them."""
+    try:
+        return itg.run(st, P, cfg, fm)
+    except np.linalg.LinAlgError:  # a NaN reached the strip's mass bound (an eigensolver)
+        return itg.NONFINITE, 0, 0, np.nan, np.nan
 
+
+def _run_chunks(st: itg.State, P: Packed, fm: FrameMass, cfg: itg.Settings, stops: _Stops, *,
+                progress: bool) -> Run:
+    """Run the time loop chunk by chunk until it stops (:func:`relax`, Returns). A diverged or
+    non-finite run is put back to its state at the last chunk end; ``st.X`` holds the end state."""
+    X, n = st.X, P.n
     it, peaks, folded_chunks = 1, 0, 0
     history: list[tuple[int, float]] = []
-    status, message = "max_iterations", ""
     good = X.copy()
-    bar = tqdm(total=int(max_iterations), desc="DR", unit="step", disable=not progress, leave=False)
+
+    def stop(status: str, message: str) -> Run:
+        """The run as it stands, ended with ``status`` and ``message``."""
+        return Run(status, message, it, np.array(history), peaks)
+
+    bar = tqdm(total=int(stops.max_iterations), desc="DR", unit="step", disable=not progress, leave=False)
     try:
         while True:
-            steps_left = int(max_iterations) - it
-            try:
-                code, steps, pk, fmax, rmax = itg.run(st, P, cfg._replace(max_steps=min(chunk, steps_left)), fm)
-            except np.linalg.LinAlgError:  # a NaN reached the strip's mass bound (an eigensolver)
-                code, steps, pk, fmax, rmax = itg.NONFINITE, 0, 0, np.nan, np.nan
+            steps_left = int(stops.max_iterations) - it
+            code, steps, pk, fmax, rmax = _chunk(st, P, fm, cfg._replace(max_steps=min(stops.chunk, steps_left)))
             it += steps
             peaks += pk
             bar.update(steps)
@@ -224,59 +292,56 @@ def relax(
             if code == itg.NONFINITE:
                 where = where_not_finite(X, st.R, P, good)
                 X[:] = good
-                status = "not_finite"
-                message = (f"a value became NaN/inf at iteration {it}, first at {where}; the last finite "
-                           f"state (iteration {last_good}) is returned")
-                break
-            unstable = (f"a node jumped more than the model size ({runaway:.3g} mm) in one step: the time "
-                        f"step is unstable with mass_safety = {mass_safety:g}; raise it (2 is safe)"
-                        if code == itg.RUNAWAY else diverging())
+                return stop("not_finite", f"a value became NaN/inf at iteration {it}, first at {where}; the last "
+                                          f"finite state (iteration {last_good}) is returned")
+            unstable = _runaway(cfg, stops) if code == itg.RUNAWAY else _energy_rise(X, P, stops)
             if unstable:
                 X[:] = good
-                status = "diverged"
-                message = (f"DR diverged at iteration {it} ({unstable}); the state of iteration "
-                           f"{last_good} is returned")
-                break
+                return stop("diverged", f"DR diverged at iteration {it} ({unstable}); the state of iteration "
+                                        f"{last_good} is returned")
             if code == itg.CONTACT:
-                status, message = "self_contact", f"stopped at iteration {it}: {contact(X[:n])}"
-                break
-            check, hit = next(((c, msg) for c, msg in ((c, c(X[:n])) for c in final_checks) if msg), (None, None))
+                return stop("self_contact", f"stopped at iteration {it}: {stops.contact(X[:n])}")
+            check, hit = _first_flag(stops.final_checks, X[:n])
             folded_chunks = folded_chunks + 1 if hit else 0
+            if code == itg.CONVERGED and hit:
+                return stop(getattr(check, "status", "membrane_fold"),
+                            f"converged in {it} iterations to a state with {hit}")
             if code == itg.CONVERGED:
-                if hit:
-                    status = getattr(check, "status", "membrane_fold")
-                    message = f"converged in {it} iterations to a state with {hit}"
-                else:
-                    status = "converged"
-                    message = f"converged in {it} iterations ({peaks} kinetic-energy peaks), residual {rel:.2e}"
-                break
+                return stop("converged", f"converged in {it} iterations ({peaks} kinetic-energy peaks), "
+                                         f"residual {rel:.2e}")
             if folded_chunks >= FOLD_PATIENCE:
-                status = getattr(check, "status", "membrane_fold")
-                message = (
-                    f"stopped at iteration {it}, not converged (relative residual {rel:.2e}): {hit}, "
-                    f"for the last {folded_chunks * chunk} steps; a net folded over has no equilibrium to reach"
-                )
-                break
-            if it >= max_iterations:
-                message = (
-                    f"not converged: max_iterations = {int(max_iterations)} reached with relative "
-                    f"residual {rel:.2e} (tol {tol:g}), {peaks} kinetic-energy peaks"
-                )
-                break
+                return stop(getattr(check, "status", "membrane_fold"),
+                            f"stopped at iteration {it}, not converged (relative residual {rel:.2e}): {hit}, for "
+                            f"the last {folded_chunks * stops.chunk} steps; a net folded over has no equilibrium "
+                            "to reach")
+            if it >= stops.max_iterations:
+                return stop("max_iterations", f"not converged: max_iterations = {int(stops.max_iterations)} "
+                                              f"reached with relative residual {rel:.2e} (tol {stops.tol:g}), "
+                                              f"{peaks} kinetic-energy peaks")
             good[:] = X
     finally:
         bar.close()
-    residual_now = history[-1][1]
-    res = make_result(
-        model, P, X, status == "converged", status, message, it, residual_now,
-        np.array(history), time.perf_counter() - t0,
-        {"ke_peaks": peaks, "mass_safety": mass_safety, "masses": masses, "damping": damping,
-         "frame_mass_nodes": int(fm.nodes.size)},
-    )
-    if not all(np.isfinite(v) for v in res.energy.values()) and status != "not_finite":
-        res.converged, res.status = False, "not_finite"
-        res.message = f"the energy is not finite ({res.message})"
-    return res
+
+
+def _first_flag(checks: Sequence[Check], x: np.ndarray) -> tuple[Check | None, str | None]:
+    """The first of ``checks`` that flags the state x (n, 3) mm, with what it says; (None, None)."""
+    return next(((c, msg) for c, msg in ((c, c(x)) for c in checks) if msg), (None, None))
+
+
+def _runaway(cfg: itg.Settings, stops: _Stops) -> str:
+    """Why a run whose node jumped further than the model size is unstable."""
+    return (f"a node jumped more than the model size ({cfg.runaway:.3g} mm) in one step: the time step is "
+            f"unstable with mass_safety = {stops.mass_safety:g}; raise it (2 is safe)")
+
+
+def _energy_rise(X: np.ndarray, P: Packed, stops: _Stops) -> str | None:
+    """Why the run at X is unstable (its potential energy rose by :data:`ENERGY_RISE`), or None."""
+    e_start, e_now = stops.e_start, potential_energy(X, P, stops.loads)
+    rise = e_now - e_start
+    if not np.isfinite(rise) or rise <= ENERGY_RISE * max(abs(e_start), abs(e_now), 1e-300):
+        return None  # a NaN energy is named 'not_finite' when the result is made
+    return (f"the energy rose from {e_start:.4g} to {e_now:.4g} N mm, which damping cannot do: the time step is "
+            f"unstable with mass_safety = {stops.mass_safety:g}; raise it (f >= 1 is stable, 2 is safe)")
 
 
 def _shortest_edge(X: np.ndarray, P: Packed) -> float:
@@ -302,15 +367,10 @@ def _force_floor(X: np.ndarray, P: Packed, loads: np.ndarray, tol: float, force_
 
 def element_forces(model: Model, P: Packed, X: np.ndarray) -> dict[str, np.ndarray]:
     """Link and cluster tensions (N) and beam bending moments at nodes (N mm)."""
-    out: dict[str, np.ndarray] = {}
-    i, j = P.link_ij.T
-    L = np.linalg.norm(X[j] - X[i], axis=1)
-    t = P.link_EA / P.link_L0 * (L - P.link_L0)
-    out["link_tension"] = np.where(P.link_tension_only & (t < 0), 0.0, t)
-    seg_len = np.linalg.norm(X[P.clu_seg[:, 1]] - X[P.clu_seg[:, 0]], axis=1)
-    total = np.bincount(P.clu_seg_cluster, weights=seg_len, minlength=P.clu_L0.size)
-    tc = P.clu_EA / P.clu_L0 * (total - P.clu_L0)
-    out["cluster_tension"] = np.where(P.clu_tension_only & (tc < 0), 0.0, tc)
+    out: dict[str, np.ndarray] = {
+        "link_tension": link_tensions(P.link_EA, P.link_L0, link_lengths(X, P), P.link_tension_only),
+        "cluster_tension": link_tensions(P.clu_EA, P.clu_L0, cable_lengths(X, P), P.clu_tension_only),
+    }
     moment = np.zeros(P.n)
     if P.beam_idx.size:
         b = P.beam_idx[:, 1]
@@ -326,20 +386,9 @@ def element_forces(model: Model, P: Packed, X: np.ndarray) -> dict[str, np.ndarr
     return out
 
 
-def make_result(
-    model: Model,
-    P: Packed,
-    X: np.ndarray,
-    converged: bool,
-    status: str,
-    message: str,
-    iterations: int,
-    residual: float,
-    history: np.ndarray,
-    wall_time: float,
-    info: dict,
-) -> Result:
-    """Assemble the shared Result (energies, element forces, VTK blocks) of a DR state."""
+def make_result(model: Model, P: Packed, X: np.ndarray, run: Run, *, wall_time: float, info: dict) -> Result:
+    """The shared Result (energies, element forces, VTK blocks) of the state X (n_total, 3) mm
+    that ``run`` ended in, after ``wall_time`` s; ``info``: the solver's extras."""
     place_virtual(X, P)
     e_mem, e_bend, e_twist, e_ax = energy(X, P)
     en = {
@@ -349,11 +398,47 @@ def make_result(
         "frame_axial": e_ax,
         "total": e_mem + e_bend + e_twist + e_ax,
     }
+    run = _with_finite_energy(run, en)
     forces = element_forces(model, P, X)
-    n = P.n
-    # display: offsets and ghosts are drawn at the frame node they belong to
-    real = np.arange(X.shape[0])
-    real[n : n + P.off_geo.shape[0]] = P.off_geo[:, 1]
+    frame_nodes, frame_s = _frame_arc(model)
+    return Result(
+        solver="dr",
+        x=X[: P.n].copy(),
+        x0=model.nodes.copy(),
+        converged=run.status == "converged",
+        status=run.status,
+        message=run.message,
+        iterations=int(run.iterations),
+        residual=float(run.history[-1][1]),
+        wall_time=float(wall_time),
+        energy=en,
+        residual_history=run.history,
+        frame_nodes=frame_nodes,
+        frame_s=frame_s,
+        blocks=_blocks(model, P, forces),
+        point_data={
+            "bending_moment_Nmm": forces["node_moment"],
+            "fixed": model.fixed.any(axis=1).astype(float),
+            "load_N": model.loads,
+        },
+        info={**info, **forces},
+    )
+
+
+def _with_finite_energy(run: Run, energy: dict[str, float]) -> Run:
+    """``run``, or 'not_finite' where the energy of its end state is not: a NaN the loop's
+    force checks did not see."""
+    if run.status == "not_finite" or all(np.isfinite(v) for v in energy.values()):
+        return run
+    return run._replace(status="not_finite", message=f"the energy is not finite ({run.message})")
+
+
+def _blocks(model: Model, P: Packed, forces: dict[str, np.ndarray]) -> dict[str, CellBlock]:
+    """The VTK cell blocks: membrane links and clusters with their tensions, the frame with its
+    axial forces and moments, the membrane surface."""
+    # offsets and ghosts are drawn at the frame node they belong to
+    real = np.arange(P.n_total)
+    real[P.n : P.n + P.off_geo.shape[0]] = P.off_geo[:, 1]
     blocks: dict[str, CellBlock] = {}
     mem = ~P.link_frame
     if mem.any():
@@ -376,34 +461,13 @@ def make_result(
         )
     if model.triangles is not None:
         blocks["membrane_surface"] = CellBlock("triangle", model.triangles)
-    point_data = {
-        "bending_moment_Nmm": forces["node_moment"],
-        "fixed": model.fixed.any(axis=1).astype(float),
-        "load_N": model.loads,
-    }
-    frame_nodes = frame_s = None
-    if model._beams:
-        chain = model._beams[0].chain
-        frame_nodes = chain
-        seg = np.linalg.norm(np.diff(model.nodes[chain], axis=0), axis=1)
-        frame_s = np.concatenate([[0.0], np.cumsum(seg)])
-    info = dict(info)
-    info.update({k: v for k, v in forces.items()})
-    return Result(
-        solver="dr",
-        x=X[:n].copy(),
-        x0=model.nodes.copy(),
-        converged=converged,
-        status=status,
-        message=message,
-        iterations=int(iterations),
-        residual=float(residual),
-        wall_time=float(wall_time),
-        energy=en,
-        residual_history=history,
-        frame_nodes=frame_nodes,
-        frame_s=frame_s,
-        blocks=blocks,
-        point_data=point_data,
-        info=info,
-    )
+    return blocks
+
+
+def _frame_arc(model: Model) -> tuple[np.ndarray | None, np.ndarray | None]:
+    """The first beam chain's nodes and their reference arc lengths (mm); None, None without one."""
+    if not model._beams:
+        return None, None
+    chain = model._beams[0].chain
+    seg = np.linalg.norm(np.diff(model.nodes[chain], axis=0), axis=1)
+    return chain, np.concatenate([[0.0], np.cumsum(seg)])
