@@ -404,7 +404,7 @@ def momentum_max2(fm, V):
 def diagonal(fm, M):
     """Write the diagonal of M_F (from its factor: sum_k L_pk^2) into the node-local mass rows
     M (n, 6) of the frame-mass nodes, off-diagonal entries zero."""
-    env, first, start = fm.env, fm.first, fm.start
+    env, start = fm.env, fm.start
     for a in range(fm.nodes.shape[0]):
         i = fm.nodes[a]
         for c in range(3):
