@@ -472,7 +472,8 @@ def _off_saddles(scene: Scene, dm: DemesModel, res: Result, runs: list[Result], 
         if mode.eigenvalue >= -stability.NEUTRAL:
             return res
         tilt = mode.shape[apex, 2]
-        sign = up * (np.sign(tilt) if abs(tilt) > 1e-6 else np.sign(np.sum(mode.shape * lift)) or 1.0)
+        # the lift already points to the side the perturbation asks for
+        sign = up * np.sign(tilt) if abs(tilt) > 1e-6 else np.sign(np.sum(mode.shape * lift)) or up
         pushed = (stability.leave_saddle(dm.model, res.x, mode, sign=sign, size=SADDLE_STEP * scene.outline.side_length)
                   if steps < MAX_SADDLE_STEPS else None)
         if pushed is None:
