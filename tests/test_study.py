@@ -22,7 +22,7 @@ prestretch = [1.05, 1.1]
 [set]
 frame.model = "strip"
 [product]
-mesh.divisions = [6, 14]
+mesh.divisions = [6, 28]
 """
 GRID = tomllib.loads(GRID_TOML)
 
@@ -62,7 +62,7 @@ def test_grid_is_the_product_of_the_listed_points_and_the_value_lists():
     assert len(g.families) == 4 and g.n_points == 8
     assert g.fields == ("frame.width", "dr.prestretch_step", "mesh.divisions")
     # a listed point that does not set a field carries the base scene's value
-    assert g.families[1].fields == {"frame.width": 3.0, "dr.prestretch_step": 0.025, "mesh.divisions": 14}
+    assert g.families[1].fields == {"frame.width": 3.0, "dr.prestretch_step": 0.025, "mesh.divisions": 28}
     assert len({f.key for f in g.families}) == 4
 
 
