@@ -12,17 +12,17 @@ import pytest
 from scenes import tomllib
 from validation.cli import main
 from validation.grid import GridError, grid_from_dict
-from validation.study import family_dir, load_records, record_path, run_study
+from validation.study import family_dir, load_records, record_path, run_study, solve_family, state_path
 
 # a fast study: the strip frame (stated: the default frame model may change) on coarse meshes at
-# low pre-stretch; the finer mesh is the slow point
+# low pre-stretch; the finer mesh is the slow point, several times slower than the coarse one
 GRID_TOML = """
 scene = "demes_paper"
 prestretch = [1.05, 1.1]
 [set]
 frame.model = "strip"
 [product]
-mesh.divisions = [6, 28]
+mesh.divisions = [6, 56]
 """
 GRID = tomllib.loads(GRID_TOML)
 
@@ -62,7 +62,7 @@ def test_grid_is_the_product_of_the_listed_points_and_the_value_lists():
     assert len(g.families) == 4 and g.n_points == 8
     assert g.fields == ("frame.width", "dr.prestretch_step", "mesh.divisions")
     # a listed point that does not set a field carries the base scene's value
-    assert g.families[1].fields == {"frame.width": 3.0, "dr.prestretch_step": 0.025, "mesh.divisions": 28}
+    assert g.families[1].fields == {"frame.width": 3.0, "dr.prestretch_step": 0.025, "mesh.divisions": 56}
     assert len({f.key for f in g.families}) == 4
 
 
@@ -110,11 +110,13 @@ def test_cluster_run_survives_a_killed_worker_and_equals_the_serial_run(serial, 
     seen = {}
 
     def kill_when_the_fast_point_is_done():
-        deadline = time.monotonic() + 120
-        while time.monotonic() < deadline:  # until the fast point's task returned and the slow one's runs
+        deadline = time.monotonic() + 300
+        # until the fast point's task returned and the slow one has recorded its first point
+        while time.monotonic() < deadline:
             fast_done = len(load_records(tmp_path, fast)) == len(fast.prestretches)
+            slow_started = len(load_records(tmp_path, slow)) > 0
             busy = [addr for addr, keys in client.processing().items() if keys]
-            if fast_done and len(busy) <= 1:
+            if fast_done and slow_started and len(busy) <= 1:
                 break
             time.sleep(0.005)
         seen["fast"] = mtimes(tmp_path, fast)
@@ -128,7 +130,7 @@ def test_cluster_run_survives_a_killed_worker_and_equals_the_serial_run(serial, 
     study = run_study(g, tmp_path, scheduler=cl.scheduler_address, plots=False, progress=False)
     killer.join()
     assert study.failed == {}
-    assert len(seen["slow"]) < len(slow.prestretches), "the kill came after the slow point had finished"
+    assert 0 < len(seen["slow"]) < len(slow.prestretches), "the kill missed the slow point's path"
     assert len(seen["killed"]) == 1 and seen["killed"][0] not in client.run(os.getpid).values()
     assert mtimes(tmp_path, fast) == seen["fast"]  # finished records not rewritten
     assert all(mtimes(tmp_path, slow)[lam] == t for lam, t in seen["slow"].items())
@@ -175,3 +177,33 @@ def test_a_failed_path_is_reported_and_left_to_the_rerun(tmp_path, monkeypatch):
     assert (study.table["status"] == "failed").all()
     assert study.table["message"].str.contains("FloatingPointError: path .* diverged").all()
     assert not list(tmp_path.glob("points/*/*.json"))  # nothing recorded: a rerun tries again
+
+
+def test_a_point_whose_record_was_lost_after_its_state_is_solved_again_the_same(tmp_path, monkeypatch):
+    """A worker killed between writing a point's state and its record: the rerun solves that point
+    again from the state it started from, and its record is the uninterrupted run's."""
+    family = grid(product={"mesh.divisions": [6]}).families[0]
+    solve_family(family, str(tmp_path / "whole"))
+    whole = load_records(tmp_path / "whole", family)
+
+    import validation.study as study
+
+    write = study._write_record
+
+    def killed_at_the_last_point(folder, record):
+        if record["prestretch"] == family.prestretches[-1]:
+            raise KeyboardInterrupt("killed")
+        write(folder, record)
+
+    out = tmp_path / "killed"
+    monkeypatch.setattr(study, "_write_record", killed_at_the_last_point)
+    with pytest.raises(KeyboardInterrupt):
+        solve_family(family, str(out))
+    folder = family_dir(out, family)
+    assert state_path(folder, family.prestretches[-1]).exists()  # the state, not the record
+    monkeypatch.setattr(study, "_write_record", write)
+    assert solve_family(family, str(out)) == 1
+    again = load_records(out, family)
+    for lam in family.prestretches:
+        assert {**again[lam], "wall_time": 0} == {**whole[lam], "wall_time": 0}, lam
+    assert sorted(p.name for p in folder.glob("*.npz")) == [state_path(folder, family.prestretches[-1]).name]

@@ -2,9 +2,10 @@
 
 Each family of the grid (the points that differ only in pre-stretch) is one task, a path
 warm-started from one pre-stretch to the next. The task writes each point's record
-(``points/<family>/<lambda>.json``) atomically as soon as the point is solved, and the last
-converged state (``state.npz``) it continues from; a rerun solves only the points with no
-record, so a killed worker or an interrupted study loses only the point in progress.
+(``points/<family>/<lambda>.json``) atomically as soon as the point is solved, after its state
+(``<lambda>.npz``); only the last recorded point's state is kept, as the one a rerun continues
+from. A rerun solves only the points with no record, so a killed worker or an interrupted study
+loses only the point in progress, and redoes it from the state it started from.
 """
 
 from __future__ import annotations
@@ -65,9 +66,13 @@ def load_records(out_dir: str | Path, family: Family) -> dict[float, dict[str, A
     return {lam: json.loads(p.read_text()) for lam, p in paths.items() if p.exists()}
 
 
+def state_path(folder: Path, lam: float) -> Path:
+    return folder / f"{lam:.4f}.npz"
+
+
 def solve_family(family: Family, out_dir: str, vtk: bool = False) -> int:
     """Solve the points of ``family`` that have no record yet (on a worker), writing each one's
-    record as it finishes; returns how many points it solved."""
+    state, then its record, as it finishes; returns how many points it solved."""
     import scenes
 
     folder = family_dir(out_dir, family)
@@ -79,15 +84,17 @@ def solve_family(family: Family, out_dir: str, vtk: bool = False) -> int:
     reachable = [lam for lam in todo if not stops or lam < min(stops)]
     scene = scenes.Scene.from_dict(family.scene_data)
     solved = 0
-    for lam, res in zip(reachable, _states(family, scene, reachable, folder)):
+    for lam, res in zip(reachable, _states(family, scene, reachable, folder, done)):
         if res.converged:
-            save_result(folder / "state.npz", res)
+            save_result(state_path(folder, lam), res)
         else:
             stops.append(lam)
         if vtk:
             _write_vtk(folder, family, lam, res)
         _write_record(folder, _record(family, lam, res))
         solved += 1
+        if res.converged:
+            _keep_only_the_state_of(folder, lam)
     stop = min(stops, default=np.inf)
     for lam in todo:
         if lam > stop and not record_path(folder, lam).exists():
@@ -95,7 +102,14 @@ def solve_family(family: Family, out_dir: str, vtk: bool = False) -> int:
     return solved
 
 
-def _states(family: Family, scene: Any, prestretches: list[float], folder: Path) -> Iterator[Result]:
+def _keep_only_the_state_of(folder: Path, lam: float) -> None:
+    for path in folder.glob("*.npz"):
+        if path != state_path(folder, lam):
+            path.unlink(missing_ok=True)
+
+
+def _states(family: Family, scene: Any, prestretches: list[float], folder: Path,
+            done: dict[float, dict[str, Any]]) -> Iterator[Result]:
     if not prestretches:
         return iter(())
     if family.solver == "fem":
@@ -105,11 +119,12 @@ def _states(family: Family, scene: Any, prestretches: list[float], folder: Path)
         return fem_reference.sweep(scene, prestretches)
     import dr
 
-    start = None
-    if (folder / "state.npz").exists():
-        start = load_result(folder / "state.npz")
-        if start.prestretch > prestretches[0] + 1e-12:
-            start = None  # a pre-stretch added below the finished ones: start from flat
+    # the path goes on from the last recorded state below the first point to solve; a state
+    # saved without its record (the worker stopped in between) is not used: that point is
+    # solved again from the same state as before, so it comes out the same
+    below = [lam for lam, rec in done.items() if rec["converged"] and lam < prestretches[0]]
+    path = state_path(folder, max(below)) if below else None
+    start = load_result(path) if path is not None and path.exists() else None
     return dr.sweep(scene, prestretches, start=start)
 
 
