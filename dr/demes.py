@@ -460,33 +460,35 @@ def _off_saddles(scene: Scene, dm: DemesModel, res: Result, runs: list[Result], 
     """A stable equilibrium from the converged nearly flat state ``res``: while its lowest
     mode (:func:`dr.stability.lowest_mode`) has a negative stiffness, step along it, apex to
     the side the scene's perturbation asks for, and relax again (each relaxation appended to
-    ``runs``). Sets ``info['saddle_steps']`` and ``info['lowest_eigenvalue']``; a state that
-    stays a saddle is returned with status 'unstable'."""
+    ``runs``). The state returned, which is also put as ``runs``' last entry, carries
+    ``info['saddle_steps']`` and ``info['lowest_eigenvalue']``; a state that stays a saddle has
+    the status 'unstable'."""
     apex = dm.frame_nodes[np.argmin(np.abs(dm.frame_s - scene.outline.apex_arc_length()))]
     up = np.sign(scene.perturbation.amplitude) or 1.0
     lift = dm.start - dm.model.nodes
     steps = 0
     while True:
         mode = stability.lowest_mode(dm.model, res.x, masses=relax_with["masses"], guess=lift)
-        res.info.update(saddle_steps=steps, lowest_eigenvalue=mode.eigenvalue)
+        checked = {**res.info, "saddle_steps": steps, "lowest_eigenvalue": mode.eigenvalue}
         if mode.eigenvalue >= -stability.NEUTRAL:
-            return res
+            runs[-1] = replace(res, info=checked)
+            return runs[-1]
         tilt = mode.shape[apex, 2]
         # the lift already points to the side the perturbation asks for
         sign = up * np.sign(tilt) if abs(tilt) > 1e-6 else np.sign(np.sum(mode.shape * lift)) or up
         pushed = (stability.leave_saddle(dm.model, res.x, mode, sign=sign, size=SADDLE_STEP * scene.outline.side_length)
                   if steps < MAX_SADDLE_STEPS else None)
         if pushed is None:
-            res.converged, res.status = False, "unstable"
-            res.message += (f"; a saddle: its lowest mode has stiffness {mode.eigenvalue:.3g} (in units of the "
-                            f"masses) after {steps} steps along it")
-            return res
+            runs[-1] = replace(res, converged=False, status="unstable", info=checked, message=(
+                f"{res.message}; a saddle: its lowest mode has stiffness {mode.eigenvalue:.3g} (in units of the "
+                f"masses) after {steps} steps along it"))
+            return runs[-1]
         steps += 1
         res = relax(dm.model, tol=scene.dr.tolerance, x_start=pushed, **relax_with)
         runs.append(res)
         if not (res.converged and _nearly_flat(scene, dm, res.x)):
-            res.info.update(saddle_steps=steps)
-            return res
+            runs[-1] = replace(res, info={**res.info, "saddle_steps": steps})
+            return runs[-1]
 
 
 def _coarse_to_fine(scene: Scene, x_coarse: np.ndarray, dm: DemesModel) -> np.ndarray:
