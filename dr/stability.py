@@ -12,7 +12,8 @@ continuation does.
 
 from __future__ import annotations
 
-from typing import NamedTuple
+import copy
+from typing import Callable, NamedTuple
 
 import numpy as np
 import scipy.sparse as sp
@@ -35,6 +36,9 @@ signs (Sylvester's law of inertia)."""
 MODE_TOLERANCE = 1e-6
 """Relative accuracy of the lowest eigenvalue (ARPACK's ``tol``)."""
 
+SPECTRUM_KRYLOV = 60
+"""Lanczos vectors kept for the ends of the spectrum (ARPACK's ``ncv``)."""
+
 MODE_ITERATIONS = 2000
 """Largest number of Lanczos restarts for the lowest mode."""
 
@@ -55,19 +59,24 @@ def potential_energy(X: np.ndarray, P: Packed, loads: np.ndarray) -> float:
     return float(sum(energy(X, P))) + float(dielectric.energy(X, P)) - float(np.sum(loads * X[: P.n]))
 
 
-def lowest_mode(model, x: np.ndarray, *, masses: str = "frame", guess: np.ndarray | None = None) -> Mode:
-    """The lowest mode of ``model`` at positions ``x`` (n, 3) mm, against the masses
-    ``masses`` ('frame', 'tensor' or 'scalar') that :func:`dr.relax` would use there (f = 2).
-    ``guess`` (n, 3): a shape to start the search from (e.g. the scene's lift).
+class _Operator(NamedTuple):
+    """C = M^-1/2 K M^-T/2 on the free DOFs of a state, and the maps it is built from."""
 
-    Lanczos (ARPACK) on the symmetric C = M^-1/2 K M^-T/2, whose spectrum lies in about
-    [-1, 1] because the masses bound the stiffness."""
+    C: LinearOperator
+    free: np.ndarray  # (m,) the DOFs C acts on, of the 3n
+    to_displacement: Callable[[np.ndarray], np.ndarray]  # y (m,) -> u = M^-T/2 y (3n,), zero where held
+    stiffness: Callable[[np.ndarray], np.ndarray]  # u (3n,) -> K u (3n,), N/mm
+    applications: list[int]  # [applications of C so far]
+
+
+def _operator(model, x: np.ndarray, masses: str) -> _Operator:
     P0 = model.pack()
     n = P0.n
     X = np.zeros((P0.n_total, 3))
     X[:n] = x
     built = masses_at(model, P0, X.copy(), masses, 2.0)
-    free = np.flatnonzero(~model.fixed.reshape(-1))
+    movable = (~model.fixed).reshape(-1)
+    free = np.flatnonzero(movable)
     h = 1e-6 * max(float(np.ptp(x, axis=0).max()), 1e-9)
     G, no_blocks = np.zeros_like(X), np.zeros((0, 6))
 
@@ -83,36 +92,91 @@ def lowest_mode(model, x: np.ndarray, *, masses: str = "frame", guess: np.ndarra
         return (out[0] - out[1]) / (2.0 * step)
 
     half, half_t = _mass_halves(built, n)
-    movable = (~model.fixed).reshape(-1)
-    applications = 0
+    applications = [0]
 
-    def C(v: np.ndarray) -> np.ndarray:
-        nonlocal applications
-        applications += 1
+    def to_displacement(y: np.ndarray) -> np.ndarray:
         u = np.zeros(3 * n)
-        u[free] = v
-        u = half_t(u) * movable
-        k = stiffness(u)
-        return half(k)[free]
+        u[free] = y
+        return half_t(u) * movable
+
+    def C(y: np.ndarray) -> np.ndarray:
+        applications[0] += 1
+        return half(stiffness(to_displacement(y)))[free]
 
     m = free.size
-    start = np.ones(m) if guess is None else np.asarray(guess, dtype=float).reshape(-1)[free] + 1e-3
+    return _Operator(LinearOperator((m, m), matvec=C, dtype=float), free, to_displacement, stiffness, applications)
+
+
+def _shape(u: np.ndarray, n: int) -> np.ndarray:
+    return u.reshape(n, 3) / max(float(np.linalg.norm(u.reshape(n, 3), axis=1).max()), 1e-300)
+
+
+def lowest_mode(model, x: np.ndarray, *, masses: str = "frame", guess: np.ndarray | None = None) -> Mode:
+    """The lowest mode of ``model`` at positions ``x`` (n, 3) mm, against the masses
+    ``masses`` ('frame', 'tensor' or 'scalar') that :func:`dr.relax` would use there (f = 2).
+    ``guess`` (n, 3): a shape to start the search from (e.g. the scene's lift).
+
+    Lanczos (ARPACK) on the symmetric C = M^-1/2 K M^-T/2, whose spectrum lies in about
+    [-1, 1] because the masses bound the stiffness."""
+    n = model.n
+    op = _operator(model, x, masses)
+    m = op.free.size
+    start = np.ones(m) if guess is None else np.asarray(guess, dtype=float).reshape(-1)[op.free] + 1e-3
     try:
-        _, v = eigsh(LinearOperator((m, m), matvec=C, dtype=float), k=1, which="SA", tol=MODE_TOLERANCE,
-                     v0=start, maxiter=MODE_ITERATIONS)
+        _, v = eigsh(op.C, k=1, which="SA", tol=MODE_TOLERANCE, v0=start, maxiter=MODE_ITERATIONS)
         found = True
     except ArpackNoConvergence as stop:
         if not len(stop.eigenvalues):
-            return Mode(float("nan"), np.zeros((n, 3)), applications, False, float("nan"))
+            return Mode(float("nan"), np.zeros((n, 3)), op.applications[0], False, float("nan"))
         v, found = stop.eigenvectors, False
-    y = np.zeros(3 * n)
-    y[free] = v[:, 0] / np.linalg.norm(v[:, 0])
-    u = half_t(y) * movable  # u^T M u = |y|^2 = 1
-    Ku = stiffness(u) * movable
+    u = op.to_displacement(v[:, 0] / np.linalg.norm(v[:, 0]))  # u^T M u = 1
+    Ku = op.stiffness(u)
     # the Rayleigh quotients of the mode itself: where K is not smooth (a cable at exactly its
     # rest length, tension-only) the Ritz value of a symmetric solver need not be one
-    shape = u.reshape(n, 3) / max(float(np.linalg.norm(u.reshape(n, 3), axis=1).max()), 1e-300)
-    return Mode(float(u @ Ku), shape, applications, found, float(u @ Ku / (u @ u)))
+    return Mode(float(u @ Ku), _shape(u, n), op.applications[0], found, float(u @ Ku / (u @ u)))
+
+
+class Spectrum(NamedTuple):
+    """The two ends of the spectrum of K v = w M v at a state: the largest w sets how far each
+    step can go (w <= 1 when the masses bound the stiffness, f = 2), the smallest how far the
+    slowest mode goes in one step; kinetic damping needs about sqrt(w_max / w_min) steps."""
+
+    w_max: float
+    w_min: float
+    top: np.ndarray  # (n, 3) the stiffest mode's shape, largest nodal displacement 1
+    bottom: np.ndarray  # (n, 3) the softest mode's shape
+    found: bool  # both ends converged to the tolerance asked for
+
+    @property
+    def condition(self) -> float:
+        """sqrt(w_max / w_min): the steps kinetic damping needs scale with it."""
+        return float(np.sqrt(self.w_max / self.w_min)) if self.w_min > 0 else float("inf")
+
+
+def spectrum(model, x: np.ndarray, *, masses: str = "frame", held: np.ndarray | None = None,
+             tolerance: float = 1e-4) -> Spectrum:
+    """Both ends of the spectrum of ``model`` at positions ``x`` (n, 3) mm against the masses
+    :func:`dr.relax` would use there (f = 2), over the free DOFs; ``held`` (n,) bool holds
+    more nodes (e.g. the frame's, for the film's own spectrum). ``tolerance``: ARPACK's relative
+    accuracy of each end."""
+    n = model.n
+    if held is not None:
+        model = copy.deepcopy(model)  # held as supports: the masses DR would build for that model
+        model.support(np.flatnonzero(held))
+    op = _operator(model, x, masses)
+    ends, found = [], True
+    m = op.free.size
+    for which in ("LA", "SA"):
+        try:
+            # a wide Krylov space: the soft end of a stiff frame's spectrum is clustered near 0
+            w, v = eigsh(op.C, k=1, which=which, tol=tolerance, v0=np.ones(m), ncv=min(m, SPECTRUM_KRYLOV),
+                         maxiter=MODE_ITERATIONS)
+        except ArpackNoConvergence as stop:
+            found = False
+            w, v = (stop.eigenvalues, stop.eigenvectors) if len(stop.eigenvalues) else ([np.nan], np.zeros((m, 1)))
+        ends.append((float(w[0]), _shape(op.to_displacement(v[:, 0]), n)))
+    (w_max, top), (w_min, bottom) = ends
+    return Spectrum(w_max, w_min, top, bottom, found)
 
 
 def leave_saddle(model, x: np.ndarray, mode: Mode, *, sign: float, size: float) -> np.ndarray | None:

@@ -73,3 +73,25 @@ def test_the_fine_link_net_solved_to_130_percent_in_one_call_ends_curled():
     coarse = dr.solve(scenes.paper_demes(1.3, "strip", **{"mesh.divisions": 28, "dr.membrane_net": "links"}))
     assert coarse.converged and coarse.info["branch"] == "up"
     assert abs(fine.bending_angle - coarse.bending_angle) < 10.0
+
+
+def test_the_frame_mass_bounds_the_column_s_spectrum_and_holding_nodes_interlaces_it():
+    """Below the Euler load: the largest w is at most 1 (the frame mass is at least f/2 K, f = 2:
+    the step is stable), the smallest is the lowest mode's, and holding nodes (here every other
+    one) narrows the spectrum from both ends (Cauchy's interlacing: a restriction of the
+    Rayleigh quotient)."""
+    model, x = compressed_column(0.5 * EULER)
+    ends = stability.spectrum(model, x, tolerance=1e-8)
+    assert ends.found
+    assert 0.5 < ends.w_max <= 1.0 + 1e-6
+    # to the noise of K's central differences (NEUTRAL, in units of the stiffest mode)
+    assert ends.w_min == pytest.approx(stability.lowest_mode(model, x).eigenvalue, abs=stability.NEUTRAL)
+    lateral = np.linalg.norm(ends.bottom[:, 1:], axis=1)
+    sine = np.sin(np.pi * x[:, 0] / x[-1, 0])
+    assert abs(lateral @ sine) / np.linalg.norm(lateral) / np.linalg.norm(sine) > 0.999
+    held = np.zeros(model.n, dtype=bool)
+    held[::2] = True
+    inner = stability.spectrum(model, x, held=held, tolerance=1e-8)
+    assert inner.found and ends.w_min <= inner.w_min and inner.w_max <= ends.w_max + 1e-9
+    assert inner.w_min > 2 * ends.w_min  # the half sine is gone: the softest mode left is stiffer
+    assert np.abs(inner.bottom[held]).max() == 0.0

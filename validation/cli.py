@@ -262,6 +262,15 @@ def cmd_bench(args: argparse.Namespace) -> int:
         fem_rows = bench_fem.rows(levels=tuple(args.levels), prestretch=lam, repeats=args.repeats)
         print(json.dumps(fem_rows, indent=1) if args.json else format_table(fem_rows, bench_fem.COLUMNS))
         return 0
+    if args.spectrum:
+        from . import bench_spectrum
+
+        lams = prestretch_list("--prestretch", args.prestretch or [1.3])
+        if len(lams) != 1 or not 0 <= args.refinement <= 2:
+            raise DemesError("--spectrum: give one --prestretch (e.g. 1.3) and --refinement 0 to 2")
+        spectrum_rows = bench_spectrum.rows(prestretch=lams[0], refinement=args.refinement)
+        print(json.dumps(spectrum_rows, indent=1) if args.json else format_table(spectrum_rows, bench_spectrum.COLUMNS))
+        return 0
     if not args.strip:
         return bench.main(repeats=args.repeats)
     from . import bench_strip
@@ -348,7 +357,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--fem", action="store_true",
                    help="the FEM reference: one state per element and level from flat (DOFs, Newton its, factorisations, time)")
     p.add_argument("--levels", nargs="+", type=int, default=[0, 1, 2], help="with --fem: refinement levels")
-    p.add_argument("--json", action="store_true", help="with --strip or --fem: rows as JSON")
+    p.add_argument("--spectrum", action="store_true",
+                   help="the ends of K v = w M v at DR's state on the strip DEMES, per kind of masses, all DOFs "
+                        "and frame held (what sets DR's steps)")
+    p.add_argument("--json", action="store_true", help="with --strip, --fem or --spectrum: rows as JSON")
     p.set_defaults(func=cmd_bench)
     return parser
 
