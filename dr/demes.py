@@ -463,7 +463,7 @@ def _off_saddles(scene: Scene, dm: DemesModel, res: Result, runs: list[Result], 
     ``runs``). The state returned, which is also put as ``runs``' last entry, carries
     ``info['saddle_steps']`` and ``info['lowest_eigenvalue']``; a state that stays a saddle has
     the status 'unstable'."""
-    apex = dm.frame_nodes[np.argmin(np.abs(dm.frame_s - scene.outline.apex_arc_length()))]
+    apex = dm.frame_nodes[scene.outline.nearest_to_apex(dm.frame_s)]
     up = np.sign(scene.perturbation.amplitude) or 1.0
     lift = dm.start - dm.model.nodes
     steps = 0

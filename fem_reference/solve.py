@@ -55,8 +55,7 @@ class Continuation:
         self.previous: tuple[float, np.ndarray] | None = None
         self.step = FIRST_STEP
         self.neutral = neutral_tolerance(self.scene)
-        self.apex = problem.mesh.frame_nodes[
-            np.argmin(np.abs(problem.mesh.frame_s - self.scene.outline.apex_arc_length()))]
+        self.apex = problem.mesh.frame_nodes[self.scene.outline.nearest_to_apex(problem.mesh.frame_s)]
         self.lift = problem.initial_guess() - problem.initial_guess(lift=False)
         self.snaps: list[tuple[float, float]] = []  # (last state on the branch, state snapped to)
         self.up = np.sign(self.scene.perturbation.amplitude) or 1.0  # + : apex up

@@ -285,6 +285,11 @@ class Outline:
         s_left = left.s_start
         return float(s_right), float(s_left)
 
+    def nearest_to_apex(self, arc_lengths: np.ndarray) -> int:
+        """Index of the arc length in ``arc_lengths`` (mm, e.g. a mesh's frame nodes) nearest the
+        apex's: the node the solvers read the apex's side from."""
+        return int(np.argmin(np.abs(np.asarray(arc_lengths) - self.apex_arc_length())))
+
     def apex_arc_length(self) -> float:
         """Arc length (mm) of the apex: the outline point farthest from the base line.
 

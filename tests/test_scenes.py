@@ -26,6 +26,17 @@ def test_rounded_triangle_length_and_height():
     assert o.apex_arc_length() == pytest.approx(o.length / 2, rel=1e-6)
 
 
+def test_the_node_nearest_the_apex_is_the_highest_mesh_frame_node():
+    """Both solvers read the apex's side at this node: on the paper scene's mesh it is the frame
+    node farthest from the base line (the apex is the highest outline point)."""
+    from scenes.mesh import membrane_mesh
+
+    scene = scenes.paper_demes(1.2, "strip", **{"mesh.divisions": 12})
+    mesh = membrane_mesh(scene, 0)
+    heights = mesh.nodes[mesh.frame_nodes, 1]
+    assert scene.outline.nearest_to_apex(mesh.frame_s) == int(np.argmax(heights))
+
+
 def test_outline_points_are_on_the_outline_with_unit_tangents():
     o = Outline(equilateral_triangle(52.0), 5.0)
     s = np.linspace(0, o.length, 997)
