@@ -70,6 +70,11 @@ def film_crossing(x: np.ndarray, triangles: np.ndarray, segments: np.ndarray | N
     pairs = tree.query_pairs(reach, output_type="ndarray")
     if pairs.size:
         i, j = pairs[:, 0], pairs[:, 1]
+        # two triangles cross only where their bounding boxes overlap, and most near pairs of a
+        # smooth film lie side by side (the DEMES at 150 %: 5 ms a check instead of 16)
+        lo, hi = p.min(axis=1), p.max(axis=1)
+        boxes = np.all((lo[i] <= hi[j]) & (lo[j] <= hi[i]), axis=1)
+        i, j = i[boxes], j[boxes]
         apart = ~(tri[i][:, :, None] == tri[j][:, None, :]).any(axis=(1, 2))
         i, j = i[apart], j[apart]
         for a, b in ((i, j), (j, i)):  # the edges of a against the triangles of b
