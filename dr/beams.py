@@ -21,8 +21,11 @@ class Fields(NamedTuple):
     beam_l: np.ndarray  # mm, rest length attributed to the node
 
 
-class Kind(NamedTuple):
+class BeamsKind(NamedTuple):
     """Marks a :class:`dr.kernels.Packed` that has spline beams (the kernels dispatch on its type)."""
+
+
+Kind = BeamsKind
 
 
 def pack(model, rest) -> Fields:

@@ -33,8 +33,11 @@ class Fields(NamedTuple):
     diel_par: np.ndarray  # (d, 2) flat area (mm^2), coefficient c (N/mm)
 
 
-class Kind(NamedTuple):
+class DielectricKind(NamedTuple):
     """Marks a :class:`dr.kernels.Packed` that has a dielectric film (the kernels dispatch on its type)."""
+
+
+Kind = DielectricKind
 
 
 def pack(model, rest) -> Fields:

@@ -43,8 +43,11 @@ class Fields(NamedTuple):
     rod_blocks: np.ndarray  # (r, 7, 6) scratch: mass blocks in the vertex's material frame
 
 
-class Kind(NamedTuple):
+class RodsKind(NamedTuple):
     """Marks a :class:`dr.kernels.Packed` that has rods (the kernels dispatch on its type)."""
+
+
+Kind = RodsKind
 
 
 def pack(model, rest) -> Fields:

@@ -32,8 +32,11 @@ class Fields(NamedTuple):
     strip_blocks: np.ndarray  # (k, 5, 6) scratch: mass blocks in the material frame
 
 
-class Kind(NamedTuple):
+class StripsKind(NamedTuple):
     """Marks a :class:`dr.kernels.Packed` that has strips (the kernels dispatch on its type)."""
+
+
+Kind = StripsKind
 
 
 def pack(model, rest) -> Fields:
@@ -77,7 +80,7 @@ def forces(X: np.ndarray, P, moment: np.ndarray) -> dict[str, np.ndarray]:
 
 
 def edges(P) -> np.ndarray:
-    """None: a strip's edges are its frame links' (the drift scale of dr.relax takes them there)."""
+    """None: the drift scale of dr.relax counts a strip's edges as its frame links (add_beam's EA)."""
     return np.zeros((0, 2), np.int64)
 
 

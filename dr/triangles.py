@@ -52,8 +52,11 @@ class Fields(NamedTuple):
     tri_par: np.ndarray  # (t, 6) area, E h, lambda, tension-only, law, Gent Jm
 
 
-class Kind(NamedTuple):
+class TrianglesKind(NamedTuple):
     """Marks a :class:`dr.kernels.Packed` that has membrane triangles (the kernels dispatch on its type)."""
+
+
+Kind = TrianglesKind
 
 
 def pack(model, rest) -> Fields:
