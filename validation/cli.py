@@ -259,7 +259,8 @@ def cmd_bench(args: argparse.Namespace) -> int:
         if args.prestretch is not None and len(args.prestretch) != 1:
             raise DemesError("--prestretch: --fem times one state; give one pre-stretch, e.g. 1.3")
         lam = prestretch_list("--prestretch", args.prestretch or [1.3])[0]
-        fem_rows = bench_fem.rows(levels=tuple(args.levels), prestretch=lam, repeats=args.repeats)
+        fem_rows = bench_fem.rows(levels=tuple(args.levels), prestretch=lam, repeats=args.repeats,
+                                  grading=args.grading)
         print(json.dumps(fem_rows, indent=1) if args.json else format_table(fem_rows, bench_fem.COLUMNS))
         return 0
     if not args.strip:
@@ -348,6 +349,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--fem", action="store_true",
                    help="the FEM reference: one state per element and level from flat (DOFs, Newton its, factorisations, time)")
     p.add_argument("--levels", nargs="+", type=int, default=[0, 1, 2], help="with --fem: refinement levels")
+    p.add_argument("--grading", type=float, default=1.0,
+                   help="with --fem: mesh.grading of the mesh (element size h0 / grading at the frame; 1 uniform)")
     p.add_argument("--json", action="store_true", help="with --strip or --fem: rows as JSON")
     p.set_defaults(func=cmd_bench)
     return parser
