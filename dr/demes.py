@@ -407,6 +407,7 @@ def _model_info(scene: Scene, dm: DemesModel, runs: PathRuns) -> dict:
     """The DR model's sizes and the path's length for ``Result.info``."""
     return dict(
         n_nodes=dm.model.n,
+        n_free_dofs=int(np.count_nonzero(~dm.model.fixed[: dm.model.n])),
         n_frame_nodes=dm.frame_nodes.size,
         n_cables=len(dm.net.cables) if dm.net is not None else 0,
         n_triangles=int(dm.model.triangles.shape[0]) if dm.net is None else 0,

@@ -27,6 +27,9 @@ MAX_VERTICES = 256
 MAX_DIVISIONS = 400
 """Most mesh divisions per side (about 70,000 DR nodes)."""
 
+MAX_GRADING = 16.0
+"""Largest mesh.grading: frame spacing h0 / 16 (the finest mesh is limited by MAX_DIVISIONS too)."""
+
 MAX_SWEEP = 1000
 """Most pre-stretch levels in a sweep."""
 
@@ -445,6 +448,12 @@ class MeshSpec(_Section):
     _prefix = "mesh"
     divisions: int = spec(28, integer_at_least(4, MAX_DIVISIONS), "", "divisions per base side",
                           bounds=f"whole number in [4, {MAX_DIVISIONS}]; divisions x 2^fem.refinement <= {2 * MAX_DIVISIONS}")
+    grading: float = spec(
+        1.0, between(1.0, MAX_GRADING, why=" (1: uniform; the frame spacing is h0 / grading)"), "",
+        "triangle mesh (the FEM's and dr.membrane_net 'triangles'): element size h0 / grading at the outline, "
+        "growing by half the distance from it up to h0 = side / divisions inside; 1: uniform. The lattice nets "
+        "('clustered', 'links') are uniform",
+        bounds=f"[1, {MAX_GRADING:g}]; divisions x grading x 2^fem.refinement <= {2 * MAX_DIVISIONS}")
 
 
 @dataclass(frozen=True)
@@ -564,6 +573,12 @@ class Scene:
             raise SceneError(
                 f"mesh.divisions x 2^fem.refinement = {fine} is above {2 * MAX_DIVISIONS}: lower "
                 "mesh.divisions or fem.refinement"
+            )
+        if fine * self.mesh.grading > 2 * MAX_DIVISIONS:
+            raise SceneError(
+                f"mesh.grading = {self.mesh.grading:g} makes the frame spacing side / {fine * self.mesh.grading:g} "
+                f"(mesh.divisions x mesh.grading x 2^fem.refinement), above {2 * MAX_DIVISIONS}: lower "
+                "mesh.grading, mesh.divisions or fem.refinement"
             )
 
     @property

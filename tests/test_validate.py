@@ -259,3 +259,19 @@ def test_second_states_are_polished_by_the_fem_on_the_same_mesh(report):
         assert (r["stable"] == "yes") == (float(r["lowest_eigenvalue [N/mm^3]"]) > -neutral)
         assert (r["second_state"] == "yes") == (r["stable"] == "yes" and float(r["shape_distance"]) > 1e-3)
     assert "## Second stable states" in (out / "report.md").read_text()
+
+
+def test_graded_speed_rows_are_on_the_graded_mesh(report):
+    """The quick plan's graded speed rows: DR triangles and the FEM (P1) on one graded mesh, with
+    its free DOFs (more than the uniform mesh of the same divisions has)."""
+    out, _, _ = report
+    rows = {r["run"]: r for r in read_csv(out / "speed.csv")}
+    fem, dr_row = rows["speed_fem_P1_n6_g2_r0"], rows["speed_dr_n6_g2_tol1e-06"]
+    assert float(fem["grading"]) == float(dr_row["grading"]) == 2.0
+    scene = scenes.paper_demes(1.3, **{"fem.element": "P1", "mesh.divisions": 6, "mesh.grading": 2.0})
+    from fem_reference.model import DemesProblem
+
+    graded = DemesProblem(scene, 0, "P1")
+    uniform = DemesProblem(scene.updated(**{"mesh.grading": 1.0}), 0, "P1")
+    assert int(float(fem["free_dofs"])) == int(float(dr_row["free_dofs"])) == graded.free.size > uniform.free.size
+    assert fem["status"] == dr_row["status"] == "converged"

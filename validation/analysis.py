@@ -190,8 +190,10 @@ def _speed(a: Analysis) -> None:
         m = state_metrics(res, ref)
         a.speed_rows.append({
             "run": run.label, "method": run.solver, "title": run.title,
-            "mesh": run.changes.get("mesh.divisions", np.nan), "tolerance": run.changes.get("dr.tolerance", np.nan),
-            "refinement": run.refinement if run.solver == "fem" else np.nan,
+            "mesh": run.changes.get("mesh.divisions", np.nan), "grading": run.changes.get("mesh.grading", 1.0),
+            "tolerance": run.changes.get("dr.tolerance", np.nan),
+            "refinement": run.refinement if run.solver == "fem" else run.changes.get("fem.refinement", np.nan),
+            "free_dofs": res.info.get("n_free_dofs", np.nan),
             "wall_time": res.wall_time, "iterations": res.iterations, "status": res.status,
             "shape_rms": m.get("shape_rms", np.nan), "bending_angle_diff": m.get("bending_angle_diff", np.nan),
             "peak_memory": a.records.get(run.label, {}).get("peak_memory_mb", np.nan),
@@ -298,7 +300,8 @@ def _budget(a: Analysis) -> None:
     if tight is not None:
         n_mid = chain[len(chain) // 2]
         for run in a.plan.by_group("speed"):
-            if run.solver == "dr" and run.changes["mesh.divisions"] == n_mid and run.changes["dr.tolerance"] != tight:
+            if (run.solver == "dr" and run.changes["mesh.divisions"] == n_mid and run.changes["dr.tolerance"] != tight
+                    and run.changes.get("mesh.grading", 1.0) == 1.0):
                 add("solver tolerance", f"DR tol {run.changes['dr.tolerance']:.0e} vs {tight:.0e} ({n_mid} divisions)",
                     *_difference(a.states[run.label].get(lam), a.states[_speed_label(n_mid, tight)].get(lam)))
 

@@ -23,12 +23,13 @@ ELEMENTS = ("P1", "P2")
 
 
 def rows(*, levels: tuple[int, ...] = (0, 1, 2), elements: tuple[str, ...] = ELEMENTS,
-         prestretch: float = 1.3, repeats: int = 1) -> list[dict]:
+         prestretch: float = 1.3, repeats: int = 1, grading: float = 1.0) -> list[dict]:
     """One row per element and level, levels ascending; a level's own share is its time less the
-    level below's (NaN where that level was not timed)."""
+    level below's (NaN where that level was not timed). ``grading``: the scene's mesh.grading
+    (the mesh graded towards the frame; 1 uniform)."""
     out: list[dict] = []
     for element in elements:
-        scene = scenes.paper_demes(prestretch, **{"fem.element": element})
+        scene = scenes.paper_demes(prestretch, **{"fem.element": element, "mesh.grading": grading})
         times = {-1: 0.0}  # level -> median time of its state; level 0 repeats nothing below it
         for k in sorted(levels):
             # one warm-up compiles for the whole process
@@ -36,7 +37,7 @@ def rows(*, levels: tuple[int, ...] = (0, 1, 2), elements: tuple[str, ...] = ELE
             times[k] = t
             own = t - times.get(k - 1, float("nan"))  # unknown when the level below was not timed
             out.append({
-                "element": element, "level": k, "free_dofs": res.info["n_free_dofs"], "status": res.status,
+                "element": element, "grading": grading, "level": k, "free_dofs": res.info["n_free_dofs"], "status": res.status,
                 "newton": res.iterations, "factorisations": res.info["factorisations"], "time": t,
                 "time_level": own, "per_newton": own / max(res.iterations, 1),
                 "bending_angle": res.bending_angle,
@@ -46,6 +47,7 @@ def rows(*, levels: tuple[int, ...] = (0, 1, 2), elements: tuple[str, ...] = ELE
 
 COLUMNS = (
     ("element", "element", ""),
+    ("grading", "mesh.grading", "g"),
     ("level", "level", "d"),
     ("free_dofs", "free DOFs", "d"),
     ("status", "status", ""),

@@ -259,7 +259,8 @@ def cmd_bench(args: argparse.Namespace) -> int:
         if args.prestretch is not None and len(args.prestretch) != 1:
             raise DemesError("--prestretch: --fem times one state; give one pre-stretch, e.g. 1.3")
         lam = prestretch_list("--prestretch", args.prestretch or [1.3])[0]
-        fem_rows = bench_fem.rows(levels=tuple(args.levels), prestretch=lam, repeats=args.repeats)
+        fem_rows = bench_fem.rows(levels=tuple(args.levels), prestretch=lam, repeats=args.repeats,
+                                  grading=args.grading)
         print(json.dumps(fem_rows, indent=1) if args.json else format_table(fem_rows, bench_fem.COLUMNS))
         return 0
     if args.spectrum:
@@ -360,6 +361,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--spectrum", action="store_true",
                    help="the ends of K v = w M v at DR's state on the strip DEMES, per kind of masses, all DOFs "
                         "and frame held (what sets DR's steps)")
+    p.add_argument("--grading", type=float, default=1.0,
+                   help="with --fem: mesh.grading of the mesh (element size h0 / grading at the frame; 1 uniform)")
     p.add_argument("--json", action="store_true", help="with --strip, --fem or --spectrum: rows as JSON")
     p.set_defaults(func=cmd_bench)
     return parser

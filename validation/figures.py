@@ -112,6 +112,9 @@ def pareto(a: Analysis, path: Path) -> Path:
                       ls="none", label="DR matched (mesh x tolerance)" if method == "dr" else "FEM (refinement levels)")
             for r in rows:
                 tag = f"n{int(r['mesh'])}, {r['tolerance']:.0e}" if method == "dr" else f"r{int(r['refinement'])}"
+                if r.get("grading", 1.0) != 1.0:
+                    tag = (f"n{int(r['mesh'])} g{r['grading']:g}" + (f" r{int(r['refinement'])}" if r["refinement"] else "")
+                           + (f", {r['tolerance']:.0e}" if method == "dr" else ""))
                 ax.annotate(tag, (r["shape_rms"], r["wall_time"]), fontsize=6, xytext=(3, 2), textcoords="offset points")
     for t in THRESHOLDS:
         ax.axvline(t, color="0.6", ls="--", lw=0.8)

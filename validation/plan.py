@@ -105,6 +105,9 @@ class Settings:
     dr_tols: tuple[float, ...]  # DR tolerances of the speed study
     hard_lams: tuple[float, ...]  # pre-stretches of the hard cases
     second_lams: tuple[float, ...]  # pre-stretches of the search for second stable states
+    dr_graded: tuple[tuple[int, float, int], ...] = ()  # DR's graded meshes: (divisions, grading, refinement)
+    graded_tols: tuple[float, ...] = ()  # their tolerances
+    fem_graded: tuple[tuple[str, int, float, int], ...] = ()  # the FEM's: (element, divisions, grading, refinement)
 
     @property
     def fem_study(self) -> dict[str, Any]:
@@ -118,6 +121,20 @@ class Settings:
         return min(self.dr_tols)
 
 
+GRADED_DR = ((20, 2.0, 0), (14, 2.0, 1), (28, 4.0, 0), (14, 4.0, 1), (20, 4.0, 1))
+"""The speed study's graded meshes of DR (divisions, mesh.grading, fem.refinement): the P1
+shape error at 130 % lives at the frame, so grading towards it buys the most per unknown
+(docs/discrete-problem.md, "Graded meshes")."""
+
+GRADED_FEM = (("P1", 20, 2.0, 0), ("P2", 14, 2.0, 0), ("P1", 14, 4.0, 1), ("P2", 14, 4.0, 0), ("P2", 14, 4.0, 1))
+"""The FEM's graded meshes in the speed study (element, divisions, mesh.grading, refinement):
+P1 too, which on a graded mesh reaches 0.1 % sooner than P2 (measured)."""
+
+GRADED_STEP_TOLERANCE = 1e-4
+"""DR's dr.step_tolerance on a graded mesh (measured at 130 %, 28 divisions graded 4: at the
+default 1e-3 the path leaves the curled branch for a flat-ish stable state at -4 deg)."""
+
+
 def settings(quick: bool) -> Settings:
     """The full plan's settings, or the quick plan's: the same study on a coarse mesh and three
     pre-stretch levels, so that every table and figure of the report is produced in minutes."""
@@ -125,20 +142,23 @@ def settings(quick: bool) -> Settings:
         # P1: the quick plan checks the harness, not the reference's accuracy
         return Settings(quick=True, sweep=(1.0, 1.15, 1.3), coarse={"mesh.divisions": 8}, levels=(0, 1),
                         element="P1", speed_lam=1.3, dr_meshes=(4, 6, 8), dr_tols=(1e-4, 1e-6),
-                        hard_lams=(1.0, 1.3), second_lams=(1.15, 1.3))
+                        hard_lams=(1.0, 1.3), second_lams=(1.15, 1.3), dr_graded=((6, 2.0, 0),),
+                        graded_tols=(1e-6,), fem_graded=(("P1", 6, 2.0, 0),))
     # levels: r0-r2 at every pre-stretch; r1-r3 where r0-r2 are not enough. Quadratic triangles:
     # measured against P1 at equal DOFs, the r0-r2 error estimate at 1.4-1.7 falls from
     # 1.2/0.51/5.0/0.82 deg to 0.18/0.34/0.51/0.53 deg. Second states: below first contact (about 1.77)
     return Settings(quick=False, sweep=_levels(1.0, 2.0, 0.1), coarse={}, levels=(0, 1, 2, 3), element="P2",
                     speed_lam=1.3, dr_meshes=(10, 14, 20, 28, 40), dr_tols=(1e-4, 1e-5, 1e-6),
-                    hard_lams=(1.0, 1.3, 1.5), second_lams=_levels(1.1, 1.7, 0.1))
+                    hard_lams=(1.0, 1.3, 1.5), second_lams=_levels(1.1, 1.7, 0.1),
+                    dr_graded=GRADED_DR, graded_tols=(1e-5, 1e-6, 1e-7), fem_graded=GRADED_FEM)
 
 
 def build_plan(quick: bool = False, *, studies: Sequence[Any] = ()) -> Plan:
     """The full plan (100-200 % in 10 % steps, FEM P2 levels r0-r2, r3 at 160-170 %), or the
     quick one (:func:`settings`), with the runs of each study (:class:`validation.extension.Study`)."""
     s = settings(quick)
-    runs = [*main_runs(s), *reference_runs(s), *budget_runs(s), *speed_dr_runs(s), *drconv_runs(s),
+    runs = [*main_runs(s), *reference_runs(s), *budget_runs(s), *speed_dr_runs(s), *speed_graded_dr_runs(s),
+            *drconv_runs(s),
             *netconv_runs(s), second_states_run(s), *speed_fem_runs(s), *hard_cases(s.coarse, s.hard_lams, quick)]
     for study in studies:
         runs += study.runs(coarse=s.coarse, quick=quick)
@@ -195,6 +215,16 @@ def speed_dr_runs(s: Settings) -> list[Run]:
             for n in s.dr_meshes for tol in s.dr_tols]
 
 
+def speed_graded_dr_runs(s: Settings) -> list[Run]:
+    """DR on graded meshes (mesh.grading), each state from scratch."""
+    return [Run(f"speed_dr_n{n}_g{g:g}{f'_r{k}' if k else ''}_tol{tol:.0e}", "dr",
+                {**MATCHED, "mesh.divisions": n, "mesh.grading": g, "fem.refinement": k, "dr.tolerance": tol,
+                 "dr.step_tolerance": GRADED_STEP_TOLERANCE},
+                (s.speed_lam,), group="speed", cold=True,
+                title=f"DR matched, {n} divisions graded {g:g}{f', refinement {k}' if k else ''}, tol {tol:.0e}")
+            for n, g, k in s.dr_graded for tol in s.graded_tols]
+
+
 def drconv_runs(s: Settings) -> list[Run]:
     """DR's own refinement over the whole sweep: its limit beside the FEM's at every pre-stretch.
     A third level (40 divisions: 5 min a state) runs only at the speed study's pre-stretch,
@@ -222,10 +252,15 @@ def second_states_run(s: Settings) -> Run:
 
 def speed_fem_runs(s: Settings) -> list[Run]:
     """The FEM in the speed study, from the flat state each time, up to r2 (r3 would add
-    minutes for one point)."""
+    minutes for one point), and on the graded meshes (:data:`GRADED_FEM`)."""
     return [Run(f"speed_fem_r{k}", "fem", s.fem_study, (s.speed_lam,), refinement=k, group="speed",
                 title=f"FEM, {s.element}, refinement {k}", cold=True)
-            for k in s.levels[:3]]
+            for k in s.levels[:3]] + [
+        Run(f"speed_fem_{el}_n{n}_g{g:g}_r{k}", "fem",
+            {**s.fem_study, "fem.element": el, "mesh.divisions": n, "mesh.grading": g},
+            (s.speed_lam,), refinement=k, group="speed", cold=True,
+            title=f"FEM, {el}, {n} divisions graded {g:g}, refinement {k}")
+        for el, n, g, k in s.fem_graded]
 
 
 def doubling_chain(meshes: Sequence[int]) -> list[int]:
