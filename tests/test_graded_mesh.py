@@ -9,9 +9,9 @@ from scipy.spatial import cKDTree
 import dr
 import fem_reference
 import scenes
-from dr.kernels import energy
 from fem_reference.model import DemesProblem
 from scenes.mesh import GRADING_SLOPE, membrane_mesh
+from test_one_problem import assert_dr_and_fem_store_the_same_energy
 
 
 def _scene(divisions: int = 14, grading: float = 4.0, **changes) -> scenes.Scene:
@@ -97,20 +97,8 @@ def test_an_asymmetric_outline_grades_too():
 
 
 def test_dr_triangles_and_the_fem_share_the_graded_mesh_and_its_energy():
-    scene = _scene(8, 3.0, **{"frame.bond_lever": 1.5})
-    dm = dr.build(scene)
-    pb = DemesProblem(scene, 0, "P1")
-    np.testing.assert_allclose(dm.model.nodes, pb.X, atol=1e-12)
-    np.testing.assert_array_equal(dm.model.fixed.all(axis=1), pb.held)
+    pb = assert_dr_and_fem_store_the_same_energy(_scene(8, 3.0, **{"frame.bond_lever": 1.5}), seed=3)
     assert len(pb.X) > 2 * len(DemesProblem(_scene(8, 1.0), 0, "P1").X)
-    x = pb.X + np.random.default_rng(3).normal(scale=0.2, size=pb.X.shape)
-    x[pb.held] = pb.X[pb.held]
-    fem = pb.evaluate(x.ravel(), 1).parts
-    P = dm.model.pack()
-    X = np.zeros((P.n_total, 3))
-    X[: P.n] = x
-    for name, value in zip(("membrane", "frame_bending", "frame_torsion", "frame_axial"), energy(X, P)):
-        assert value == pytest.approx(fem[name], rel=1e-12, abs=1e-12), name
 
 
 @pytest.mark.parametrize("value, match", [
