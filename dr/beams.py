@@ -2,10 +2,62 @@
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 from numba import njit
 
+from .triplets import beam_triplets
 from .vec import add, add_to, cross, get, norm, scale, sub
+
+
+class Fields(NamedTuple):
+    """The spline beams' arrays in :class:`dr.kernels.Packed`."""
+
+    beam_idx: np.ndarray  # (b, 3) spline-beam triplets s, i, f
+    beam_EI: np.ndarray  # N mm^2
+    beam_k0: np.ndarray  # 1/mm rest curvature
+    beam_w: np.ndarray  # weight (1/2 at a clamp: the other half belongs to the mirrored beam)
+    beam_l: np.ndarray  # mm, rest length attributed to the node
+
+
+class BeamsKind(NamedTuple):
+    """Marks a :class:`dr.kernels.Packed` that has spline beams (the kernels dispatch on its type)."""
+
+
+Kind = BeamsKind
+
+
+def pack(model, rest) -> Fields:
+    """The isotropic beams of ``model`` (:meth:`dr.Model.add_beam` without ``EI_strong``), their
+    rest curvatures and lengths from the rest positions ``rest.X`` (:class:`dr.model.Rest`)."""
+    rows = list(beam_triplets(model, rest.ghost_id, strip=False))
+    idx = np.array([r[:3] for r in rows], dtype=np.int64).reshape(-1, 3)
+    X = rest.X
+    s, i, f = idx.T
+    return Fields(
+        beam_idx=idx,
+        beam_EI=np.array([r[6].EI for r in rows], dtype=float),
+        beam_k0=curvatures(X, idx) if rows else np.zeros(0),
+        beam_w=np.array([r[3] for r in rows], dtype=float),
+        beam_l=0.5 * (np.linalg.norm(X[i] - X[s], axis=1) + np.linalg.norm(X[f] - X[i], axis=1)),
+    )
+
+
+def forces(X: np.ndarray, P, moment: np.ndarray) -> dict[str, np.ndarray]:
+    """Adds each triplet's bending moment EI (kappa - kappa_0) (N mm) to ``moment`` (n,) at its
+    middle node (ghost triplets' middle is the clamped node); reports nothing of its own."""
+    if P.beam_idx.size == 0:
+        return {}
+    b = P.beam_idx[:, 1]
+    kap = curvatures(X, P.beam_idx)
+    np.add.at(moment, b[b < P.n], (P.beam_EI * (kap - P.beam_k0))[b < P.n])
+    return {}
+
+
+def edges(P) -> np.ndarray:
+    """Node pairs (k, 2) of the triplets' two edges."""
+    return np.concatenate([P.beam_idx[:, :2], P.beam_idx[:, 1:]])
 
 
 @njit(cache=True, error_model="numpy", inline="always")
@@ -51,14 +103,15 @@ def gradient(X, P, G, D):
 
 
 @njit(cache=True, error_model="numpy")
-def energy(X, P):
-    """Bending energy M^2 L / (2 EI) of all triplets, N mm."""
+def strain_energy(X, P):
+    """Strain energy (membrane, frame bending, frame torsion, frame axial) of all triplets, N mm:
+    bending M^2 L / (2 EI) only."""
     e = 0.0
     for k in range(P.beam_idx.shape[0]):
         kap = curvature(get(X, P.beam_idx[k, 0]), get(X, P.beam_idx[k, 1]), get(X, P.beam_idx[k, 2]))[0]
         dm = kap - P.beam_k0[k]
         e += 0.5 * P.beam_w[k] * P.beam_EI[k] * dm * dm * P.beam_l[k]
-    return e
+    return 0.0, e, 0.0, 0.0
 
 
 @njit(cache=True, error_model="numpy")

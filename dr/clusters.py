@@ -2,11 +2,62 @@
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 from numba import njit
 
-from .links import tension
+from .links import tension, tensions
 from .vec import add_to, get, norm, scale, sub
+
+
+class Fields(NamedTuple):
+    """The clustered cables' arrays in :class:`dr.kernels.Packed`."""
+
+    clu_seg: np.ndarray  # (s, 2) cable segments (node pairs), all clusters
+    clu_ptr: np.ndarray  # (c+1,) into clu_nodes
+    clu_nodes: np.ndarray  # chains, concatenated
+    clu_EA: np.ndarray  # N
+    clu_L0: np.ndarray  # mm, rest length of the whole cable
+    clu_tension_only: np.ndarray  # bool
+    clu_seg_cluster: np.ndarray  # (s,) cluster of each segment
+    clu_work: np.ndarray  # (len(clu_nodes),) scratch: segment lengths of the current step
+
+
+class ClustersKind(NamedTuple):
+    """Marks a :class:`dr.kernels.Packed` that has clustered cables (the kernels dispatch on its type)."""
+
+
+Kind = ClustersKind
+
+
+def pack(model, rest) -> Fields:
+    """The clustered cables of ``model`` (:meth:`dr.Model.add_cluster`); ``rest`` is unused."""
+    cl = model._clusters
+    ptr = np.zeros(len(cl) + 1, dtype=np.int64)
+    ptr[1:] = np.cumsum([c[0].size for c in cl])
+    nodes = np.concatenate([c[0] for c in cl]) if cl else np.zeros(0, np.int64)
+    seg = np.concatenate([np.stack([c[0][:-1], c[0][1:]], axis=1) for c in cl]) if cl else np.zeros((0, 2), np.int64)
+    return Fields(
+        clu_seg=seg.astype(np.int64),
+        clu_ptr=ptr,
+        clu_nodes=nodes.astype(np.int64),
+        clu_EA=np.array([c[1] for c in cl], dtype=float),
+        clu_L0=np.array([c[2] for c in cl], dtype=float),
+        clu_tension_only=np.array([c[3] for c in cl], dtype=bool),
+        clu_seg_cluster=np.repeat(np.arange(len(cl)), [c[0].size - 1 for c in cl]).astype(np.int64),
+        clu_work=np.zeros(nodes.size),
+    )
+
+
+def forces(X: np.ndarray, P, moment: np.ndarray) -> dict[str, np.ndarray]:
+    """The tension of each clustered cable at X, N (``moment`` is left alone)."""
+    return {"cluster_tension": tensions(P.clu_EA, P.clu_L0, lengths(X, P), P.clu_tension_only)}
+
+
+def edges(P) -> np.ndarray:
+    """Node pairs (k, 2) of the cables' segments."""
+    return P.clu_seg
 
 
 def lengths(X: np.ndarray, P) -> np.ndarray:
@@ -45,13 +96,14 @@ def gradient(X, P, G, D):
 
 
 @njit(cache=True, error_model="numpy")
-def energy(X, P):
-    """Strain energy of all clusters, N mm."""
+def strain_energy(X, P):
+    """Strain energy (membrane, frame bending, frame torsion, frame axial) of all clusters, N mm:
+    membrane only."""
     e = 0.0
     for c in range(P.clu_ptr.shape[0] - 1):
         t = tension(P.clu_EA[c], P.clu_L0[c], _length(X, P, c), P.clu_tension_only[c])
         e += 0.5 * t * t * P.clu_L0[c] / P.clu_EA[c]
-    return e
+    return e, 0.0, 0.0, 0.0
 
 
 @njit(cache=True, error_model="numpy")

@@ -14,6 +14,8 @@ the stiffness, not its sign, so the absolute row sums bound it.
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 from numba import njit
 
@@ -22,6 +24,40 @@ from .vec import add_to, cross, dot, get, sub
 
 AREA, COEFF = range(2)
 """Columns of Packed.diel_par: flat area (mm^2) and c (N/mm)."""
+
+
+class Fields(NamedTuple):
+    """The dielectric film's arrays in :class:`dr.kernels.Packed`."""
+
+    diel_idx: np.ndarray  # (d, 3) triangles of the dielectric film
+    diel_par: np.ndarray  # (d, 2) flat area (mm^2), coefficient c (N/mm)
+
+
+class DielectricKind(NamedTuple):
+    """Marks a :class:`dr.kernels.Packed` that has a dielectric film (the kernels dispatch on its type)."""
+
+
+Kind = DielectricKind
+
+
+def pack(model, rest) -> Fields:
+    """The dielectric film of ``model`` (:meth:`dr.Model.add_dielectric`) at its coefficient;
+    ``rest`` is unused. At zero voltage it has no rows: V = 0 is the mechanical model bit for bit."""
+    if model._dielectric is None or model.dielectric_coefficient <= 0.0:
+        return Fields(np.zeros((0, 3), np.int64), np.zeros((0, 2)))
+    t, area = model._dielectric
+    return Fields(t, np.column_stack([area, np.full(len(area), model.dielectric_coefficient)]))
+
+
+def forces(X: np.ndarray, P, moment: np.ndarray) -> dict[str, np.ndarray]:
+    """Nothing: the dielectric reports no forces (``moment`` is left alone)."""
+    return {}
+
+
+def edges(P) -> np.ndarray:
+    """None: the dielectric's triangles are the membrane's (the drift scale of dr.relax takes
+    their sides there)."""
+    return np.zeros((0, 2), np.int64)
 
 
 @njit(cache=True, error_model="numpy")
@@ -87,8 +123,6 @@ def dielectric_gradient(X, idx, par, G, xl, gl):
 @njit(cache=True, error_model="numpy")
 def gradient(X, P, G, D):
     """Add the dielectric's gradient of every film triangle to G; returns its largest force (N)."""
-    if P.diel_idx.shape[0] == 0:  # no voltage: no scratch arrays in the time loop
-        return 0.0
     xt = np.zeros((3, 3))
     gt = np.zeros((3, 3))
     fmax = 0.0
@@ -115,11 +149,16 @@ def energy(X, P):
 
 
 @njit(cache=True, error_model="numpy")
+def strain_energy(X, P):
+    """Strain energy (membrane, frame bending, frame torsion, frame axial): none. The film's
+    electrostatic energy is no strain energy; :func:`energy` gives it (dr.stability adds it)."""
+    return 0.0, 0.0, 0.0, 0.0
+
+
+@njit(cache=True, error_model="numpy")
 def stiffness(X, P, S, with_links):
     """Add the Gershgorin bound of each triangle's dielectric Hessian (it softens the film: its
     size, not its sign, bounds the time step) to S."""
-    if P.diel_idx.shape[0] == 0:
-        return
     xt = np.zeros((3, 3))
     H = np.zeros((9, 9))
     for k in range(P.diel_idx.shape[0]):

@@ -1,9 +1,9 @@
 """The model's energy, its gradient (forces) and the stiffness bounds behind the masses.
 
-Each element type is its own module with ``gradient``, ``energy`` and ``stiffness`` over its
-arrays in :class:`Packed`: links, clusters (clustered cables), beams (spline beams), strips,
-triangles (membrane) and rod (the FEM's frame rod); the functions here run them in turn and
-handle the virtual nodes.
+Each element type is its own module (the registry dr.elements: links, clusters, beams, strips,
+triangles, rod, dielectric) with ``gradient``, ``strain_energy`` and ``stiffness`` over its
+arrays in :class:`Packed`; the functions here run those the model has in turn and handle the
+virtual nodes.
 
 Everything acts on an extended position array X = [real nodes; virtual nodes]. Virtual nodes
 are positions derived from real ones:
@@ -25,16 +25,20 @@ from __future__ import annotations
 from typing import NamedTuple
 
 import numpy as np
-from numba import njit
+from numba import literal_unroll, njit
+from numba.extending import overload
 
-from . import beams, clusters, dielectric, links, rod, strips, triangles
 from .blocks import add_reflected
 from .frames import Z0, gather, node_frame, node_frame_vjp, scatter
+from .elements import ELEMENTS
 from .vec import add_to, axpy, dot, get, scale, sub
 
 
-class Packed(NamedTuple):
-    """Element arrays of a model, as the kernels take them (see :class:`dr.Model`)."""
+class Virtual(NamedTuple):
+    """The fields of :class:`Packed` that define the virtual nodes. The per-step code passes
+    this small record rather than the whole of ``Packed``: a compiled call increments and
+    decrements the reference count of every array in its record arguments, and the 35 of
+    ``Packed`` cost about 0.5 us per call."""
 
     n: int  # real nodes
     ghost_src: np.ndarray  # (g,) node mirrored
@@ -42,36 +46,17 @@ class Packed(NamedTuple):
     ghost_t: np.ndarray  # (g, 3) unit clamped tangent
     off_geo: np.ndarray  # (o, 5) frame geometry indices of the offset node's frame node
     off_d: np.ndarray  # (o,) signed offset along the strip normal, mm
-    link_ij: np.ndarray  # (l, 2)
-    link_EA: np.ndarray  # N
-    link_L0: np.ndarray  # mm
-    link_tension_only: np.ndarray  # bool
-    link_frame: np.ndarray  # bool: frame axial (True) or membrane (False), for the energy split
-    link_block: np.ndarray  # bool: its stiffness is in the frame mass (dr.frame_mass), not in D
-    clu_ptr: np.ndarray  # (c+1,) into clu_nodes
-    clu_nodes: np.ndarray  # chains, concatenated
-    clu_EA: np.ndarray  # N
-    clu_L0: np.ndarray  # mm, rest length of the whole cable
-    clu_tension_only: np.ndarray  # bool
-    clu_seg: np.ndarray  # (s, 2) cable segments (node pairs), all clusters
-    clu_seg_cluster: np.ndarray  # (s,) cluster of each segment
-    clu_work: np.ndarray  # (len(clu_nodes),) scratch: segment lengths of the current step
-    beam_idx: np.ndarray  # (b, 3) spline-beam triplets s, i, f
-    beam_EI: np.ndarray  # N mm^2
-    beam_k0: np.ndarray  # 1/mm rest curvature
-    beam_w: np.ndarray  # weight (1/2 at a clamp: the other half belongs to the mirrored beam)
-    beam_l: np.ndarray  # mm, rest length attributed to the node
-    strip_idx: np.ndarray  # (k, 5) frame geometry of strip nodes
-    strip_par: np.ndarray  # (k, 9) KB, KT, EIW, EIS, GJ, KW0, KN0, TAU0, LBAR
-    strip_blocks: np.ndarray  # (k, 5, 6) scratch: mass blocks in the material frame
-    tri_idx: np.ndarray  # (t, 3) membrane triangles
-    tri_grad: np.ndarray  # (t, 3, 2) flat shape-function gradients, 1/mm
-    tri_par: np.ndarray  # (t, 6) see dr.triangles (area, E h, lambda, tension-only, law, Gent Jm)
-    rod_idx: np.ndarray  # (r, 7) rod vertex stencils, see dr.rod
-    rod_par: np.ndarray  # (r, dr.rod.N_PAR)
-    rod_blocks: np.ndarray  # (r, 7, 6) scratch: mass blocks in the vertex's material frame
-    diel_idx: np.ndarray  # (d, 3) triangles of the dielectric film, see dr.dielectric
-    diel_par: np.ndarray  # (d, 2) flat area (mm^2), coefficient c (N/mm)
+
+
+class Packed(NamedTuple("PackedFields", [*Virtual.__annotations__.items(),
+                                         *((f, t) for e in ELEMENTS for f, t in e.Fields.__annotations__.items()),
+                                         ("kinds", tuple)])):
+    """Arrays of a model, as the kernels take them (see :class:`dr.Model`): the fields of
+    :class:`Virtual`, then each element type's ``Fields`` (dr.elements), then ``kinds``: the
+    ``Kind()`` of each element type the model has (links always: the loops over them need one
+    type), which the kernels dispatch on, so that only those are compiled."""
+
+    __slots__ = ()
 
     @property
     def n_total(self) -> int:
@@ -80,20 +65,6 @@ class Packed(NamedTuple):
 
 
 # ----------------------------------------------------------------------------- virtual nodes
-
-
-class Virtual(NamedTuple):
-    """The fields of :class:`Packed` that define the virtual nodes. The per-step code passes
-    this small record rather than the whole of ``Packed``: a compiled call increments and
-    decrements the reference count of every array in its record arguments, and the 37 of
-    ``Packed`` cost about 0.5 us per call."""
-
-    n: int
-    ghost_src: np.ndarray
-    ghost_clamp: np.ndarray
-    ghost_t: np.ndarray
-    off_geo: np.ndarray
-    off_d: np.ndarray
 
 
 @njit(cache=True, error_model="numpy", inline="always")
@@ -152,6 +123,45 @@ def pull_back_virtual(X, G, P):
 
 
 # ----------------------------------------------------------------------------- all elements
+# Compiled code cannot loop over modules; it loops (literal_unroll) over the Kind() records in
+# P.kinds, a tuple of distinct types, and these calls pick the element's function by that type
+# when the loop is compiled. Inlined, so that an element's call costs no reference counting of
+# P's arrays, as a direct call of an inlined element function.
+
+_MODULE = {e.Kind: e for e in ELEMENTS}
+
+
+def element_gradient(kind, X, P, G, D):
+    """``gradient`` of the element type that ``kind`` (a ``Kind()``) marks; compiled code only."""
+    raise NotImplementedError
+
+
+def element_energy(kind, X, P):
+    """``strain_energy`` of the element type that ``kind`` marks; compiled code only."""
+    raise NotImplementedError
+
+
+def element_stiffness(kind, X, P, S, with_links):
+    """``stiffness`` of the element type that ``kind`` marks; compiled code only."""
+    raise NotImplementedError
+
+
+@overload(element_gradient, inline="always")
+def _gradient_of(kind, X, P, G, D):
+    fn = _MODULE[kind.instance_class].gradient
+    return lambda kind, X, P, G, D: fn(X, P, G, D)
+
+
+@overload(element_energy, inline="always")
+def _energy_of(kind, X, P):
+    fn = _MODULE[kind.instance_class].strain_energy
+    return lambda kind, X, P: fn(X, P)
+
+
+@overload(element_stiffness, inline="always")
+def _stiffness_of(kind, X, P, S, with_links):
+    fn = _MODULE[kind.instance_class].stiffness
+    return lambda kind, X, P, S, with_links: fn(X, P, S, with_links)
 
 
 @njit(cache=True, error_model="numpy")
@@ -170,23 +180,9 @@ def gradient(X, P, G, D):
     G[:] = 0.0
     if D.shape[0] > 0:
         D[:] = 0.0
-    # each element type is called only when the model has it: a call costs its record's
-    # reference counting even when it returns at once (see dr.integrator.run)
     fmax = 0.0
-    if P.link_ij.shape[0] > 0:
-        fmax = max(fmax, links.gradient(X, P, G, D))
-    if P.clu_seg.shape[0] > 0:
-        fmax = max(fmax, clusters.gradient(X, P, G, D))
-    if P.beam_idx.shape[0] > 0:
-        fmax = max(fmax, beams.gradient(X, P, G, D))
-    if P.strip_idx.shape[0] > 0:
-        fmax = max(fmax, strips.gradient(X, P, G, D))
-    if P.tri_idx.shape[0] > 0:
-        fmax = max(fmax, triangles.gradient(X, P, G, D))
-    if P.rod_idx.shape[0] > 0:
-        fmax = max(fmax, rod.gradient(X, P, G, D))
-    if P.diel_idx.shape[0] > 0:
-        fmax = max(fmax, dielectric.gradient(X, P, G, D))
+    for kind in literal_unroll(P.kinds):
+        fmax = max(fmax, element_gradient(kind, X, P, G, D))
     if has_virtual:
         pull_back_virtual(X, G, vp)
         if D.shape[0] > 0:
@@ -198,11 +194,14 @@ def gradient(X, P, G, D):
 def energy(X, P):
     """Strain energy split (membrane, frame bending, frame torsion, frame axial), N mm."""
     place_virtual(X, P)
-    e_mem, e_ax = links.energy(X, P)
-    e_mem += clusters.energy(X, P) + triangles.energy(X, P)
-    e_bend, e_twist = strips.energy(X, P)
-    rb, rt = rod.energy(X, P)
-    return e_mem, e_bend + rb + beams.energy(X, P), e_twist + rt, e_ax
+    e_mem = e_bend = e_twist = e_ax = 0.0
+    for kind in literal_unroll(P.kinds):
+        m, b, t, a = element_energy(kind, X, P)
+        e_mem += m
+        e_bend += b
+        e_twist += t
+        e_ax += a
+    return e_mem, e_bend, e_twist, e_ax
 
 
 @njit(cache=True, error_model="numpy")
@@ -217,21 +216,8 @@ def stiffness(X, P, S, with_links):
     if X.shape[0] > P.n:
         place_virtual(X, virtual(P))
     S[:] = 0.0
-    # called only for the element types the model has, as in gradient
-    if P.link_ij.shape[0] > 0:
-        links.stiffness(X, P, S, with_links)
-    if P.clu_seg.shape[0] > 0:
-        clusters.stiffness(X, P, S, with_links)
-    if P.beam_idx.shape[0] > 0:
-        beams.stiffness(X, P, S, with_links)
-    if P.strip_idx.shape[0] > 0:
-        strips.stiffness(X, P, S, with_links)
-    if P.tri_idx.shape[0] > 0:
-        triangles.stiffness(X, P, S, with_links)
-    if P.rod_idx.shape[0] > 0:
-        rod.stiffness(X, P, S, with_links)
-    if P.diel_idx.shape[0] > 0:
-        dielectric.stiffness(X, P, S, with_links)
+    for kind in literal_unroll(P.kinds):
+        element_stiffness(kind, X, P, S, with_links)
     n = P.n
     base = n + P.off_geo.shape[0]
     for k in range(P.off_geo.shape[0]):

@@ -2,11 +2,59 @@
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 from numba import njit
 
 from .blocks import add_block
 from .vec import add_to, get, norm, scale, sub
+
+
+class Fields(NamedTuple):
+    """The links' arrays in :class:`dr.kernels.Packed`."""
+
+    link_ij: np.ndarray  # (l, 2)
+    link_EA: np.ndarray  # N
+    link_L0: np.ndarray  # mm
+    link_tension_only: np.ndarray  # bool
+    link_frame: np.ndarray  # bool: frame axial (True) or membrane (False), for the energy split
+    link_block: np.ndarray  # bool: its stiffness is in the frame mass (dr.frame_mass), not in D
+
+
+class LinksKind(NamedTuple):
+    """Marks a :class:`dr.kernels.Packed` that has links (the kernels dispatch on its type)."""
+
+
+Kind = LinksKind
+
+
+def pack(model, rest) -> Fields:
+    """The links of ``model`` (:meth:`dr.Model.add_link`); ``rest`` is unused."""
+    if model._links:
+        li, lj, lea, ll0, lto, lfr = (np.concatenate(a) for a in zip(*model._links))
+    else:
+        li = lj = np.zeros(0, np.int64)
+        lea = ll0 = np.zeros(0)
+        lto = lfr = np.zeros(0, bool)
+    return Fields(
+        link_ij=np.stack([li, lj], axis=1).astype(np.int64).reshape(-1, 2),
+        link_EA=lea.astype(float),
+        link_L0=ll0.astype(float),
+        link_tension_only=lto.astype(bool),
+        link_frame=lfr.astype(bool),
+        link_block=np.zeros(lfr.size, bool),
+    )
+
+
+def forces(X: np.ndarray, P, moment: np.ndarray) -> dict[str, np.ndarray]:
+    """The tension of each link at X, N (``moment`` is left alone)."""
+    return {"link_tension": tensions(P.link_EA, P.link_L0, lengths(X, P), P.link_tension_only)}
+
+
+def edges(P) -> np.ndarray:
+    """Node pairs (k, 2) the links join."""
+    return P.link_ij
 
 
 @njit(cache=True, error_model="numpy")
@@ -58,8 +106,9 @@ def gradient(X, P, G, D):
 
 
 @njit(cache=True, error_model="numpy")
-def energy(X, P):
-    """Strain energy (membrane links, frame links), N mm: N eps L0 / 2 each."""
+def strain_energy(X, P):
+    """Strain energy (membrane, frame bending, frame torsion, frame axial), N mm: N eps L0 / 2
+    of each link, as membrane or frame axial by its role."""
     e_mem = e_frame = 0.0
     for k in range(P.link_ij.shape[0]):
         L = norm(sub(get(X, P.link_ij[k, 1]), get(X, P.link_ij[k, 0])))
@@ -69,7 +118,7 @@ def energy(X, P):
             e_frame += e
         else:
             e_mem += e
-    return e_mem, e_frame
+    return e_mem, 0.0, 0.0, e_frame
 
 
 @njit(cache=True, error_model="numpy")

@@ -23,18 +23,16 @@ relaxation can be a different geometry (``relax(m, x_start=...)``).
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Iterable, Sequence
+from typing import Iterable, NamedTuple, Sequence
 
 import numpy as np
 
 from .errors import DRError
-from . import rod as rod_element
-from . import dielectric as diel_element
+from . import dielectric as diel_element, links
 from . import triangles as tri_element
-from .beams import curvatures
+from .elements import ELEMENTS
 from .frames import node_frame
-from .kernels import Packed, place_virtual
-from .strips import EIS, EIW, GJ, KB, KN0, KT, KW0, LBAR, TAU0, strip_measures
+from .kernels import Packed, Virtual, place_virtual
 
 
 def _positive(name: str, value: float) -> float:
@@ -49,6 +47,15 @@ def _unit(name: str, v: Sequence[float]) -> np.ndarray:
     if a.shape != (3,) or not np.all(np.isfinite(a)) or np.linalg.norm(a) == 0:
         raise DRError(f"{name} must be a non-zero 3-vector")
     return a / np.linalg.norm(a)
+
+
+class Rest(NamedTuple):
+    """What an element's ``pack`` may need besides the model: the rest positions X (n_total, 3)
+    mm, virtual nodes placed (clamp ghosts about the clamps' rest tangents), and the row of
+    each clamp ghost by (beam number, end 0 or -1)."""
+
+    X: np.ndarray
+    ghost_id: dict
 
 
 @dataclass
@@ -377,64 +384,6 @@ class Model:
         n_edges = c.size if closed else c.size - 1
         self.add_link(c[:n_edges], np.roll(c, -1)[:n_edges], _positive("rod EA (N)", EA), role="frame")
 
-    def _pack_triangles(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        if not self._triangles:
-            return np.zeros((0, 3), np.int64), np.zeros((0, 3, 2)), np.zeros((0, tri_element.N_PAR))
-        idx, grads, pars = [], [], []
-        for t, E, h, lam, tension_only, law, jm in self._triangles:
-            g, area = tri_element.shape_gradients(self.nodes[t][:, :, :2])
-            par = np.zeros((t.shape[0], tri_element.N_PAR))
-            par[:, tri_element.AREA] = area
-            par[:, tri_element.EH] = E * h
-            par[:, tri_element.LAM] = lam
-            par[:, tri_element.TONLY] = float(tension_only)
-            par[:, tri_element.LAW] = law
-            par[:, tri_element.JM] = jm
-            idx.append(t)
-            grads.append(g)
-            pars.append(par)
-        return np.vstack(idx), np.vstack(grads), np.vstack(pars)
-
-    def _pack_rods(self) -> tuple[np.ndarray, np.ndarray]:
-        R = rod_element
-        if not self._rods:
-            return np.zeros((0, R.ROWS), np.int64), np.zeros((0, R.N_PAR))
-        held = self.fixed.all(axis=1)
-        X = self.nodes
-        idx_all, par_all = [], []
-        for rod in self._rods:
-            c, m = rod.chain, rod.chain.size
-            n_edges = m if rod.closed else m - 1
-            ends = np.column_stack([c[:n_edges], np.roll(c, -1)[:n_edges]])
-            edge_held = held[ends[:, 0]] & held[ends[:, 1]]
-            length = np.linalg.norm(X[ends[:, 1]] - X[ends[:, 0]], axis=1)
-            t0 = (X[ends[:, 1]] - X[ends[:, 0]]) / length[:, None]
-            n0 = np.tile([0.0, 0.0, 1.0], (n_edges, 1))
-            rest = np.concatenate([t0, np.cross(n0, t0), n0], axis=1)  # (E, 9): t, d2, n
-            k = np.arange(m) if rod.closed else np.arange(1, m - 1)
-            a, b = (k - 1) % n_edges, k % n_edges
-            keep = ~(edge_held[a] & edge_held[b])
-            a, b = a[keep], b[keep]
-            rows = R.rod_rows(c, rod.bond, rod.closed)[keep]
-            w = np.where(edge_held, 0.0, length)
-            par = np.zeros((rows.shape[0], R.N_PAR))
-            par[:, R.W] = 1.0 / (w[a] + w[b])  # 1 / (2 l_v)
-            par[:, R.EIW] = rod.EI
-            strip = rod.EI_strong is not None
-            par[:, R.MODEL] = R.STRIP if strip else R.PAPER
-            if strip:
-                par[:, R.EIS], par[:, R.GJ] = rod.EI_strong, rod.GJ
-            par[:, R.HELD_A], par[:, R.HELD_B] = edge_held[a], edge_held[b]
-            par[:, R.FRAME_A:R.FRAME_A + 9] = rest[a]
-            par[:, R.FRAME_B:R.FRAME_B + 9] = rest[b]
-            xl = np.zeros((R.ROWS, 3))
-            for r in range(rows.shape[0]):  # rest curvature of the flat state
-                R.gather(X, rows[r], xl)
-                par[r, R.K0:R.K0 + 3] = R.rod_local(xl, par[r], xl, False)[3]
-            idx_all.append(rows)
-            par_all.append(par)
-        return np.vstack(idx_all), np.vstack(par_all)
-
     def scale_membrane_rest_lengths(self, factor: float) -> None:
         """Multiply the rest lengths of clusters, membrane links and triangles by ``factor``
         (> 0): how a pre-stretch is changed on a built model (lambda_old / lambda_new)."""
@@ -496,121 +445,25 @@ class Model:
         raise DRError(f"node {node} is on no beam with an orientation: give add_beam(..., orientation=...) first")
 
     def pack(self) -> Packed:
-        """The element arrays the compiled kernels take."""
+        """The arrays the compiled kernels take: the virtual nodes', then each element type's
+        (its module's ``pack``, in the order of dr.elements)."""
         n, n_off = self.n, self.n_virtual
         ghosts = self._ghosts()
-        ghost_id = {(b, end): n + n_off + g for g, (b, end, _, _) in enumerate(ghosts)}
-        x = self.nodes
-        beam_rows, strip_rows = [], []
-        for b, beam in enumerate(self._beams):
-            c = beam.chain
-            m = c.size
-            trip = []  # (prev, j, next, weight, edge slots)
-            if beam.closed:
-                for p in range(m):
-                    trip.append((c[p - 1], c[p], c[(p + 1) % m], 1.0, p - 1, p))
-            else:
-                for p in range(1, m - 1):
-                    trip.append((c[p - 1], c[p], c[p + 1], 1.0, p - 1, p))
-                if (b, 0) in ghost_id:
-                    trip.append((ghost_id[(b, 0)], c[0], c[1], 0.5, -1, 0))
-                if (b, -1) in ghost_id:
-                    trip.append((c[-2], c[-1], ghost_id[(b, -1)], 0.5, m - 2, -1))
-            for prev, j, nxt, w, e1, e2 in trip:
-                if beam.EI_strong is None:
-                    beam_rows.append((prev, j, nxt, beam.EI, w))
-                else:
-                    if w < 1.0 and not self._clamps[int(j)][1]:
-                        raise DRError(f"strip beam clamped at node {j} must be taped (clamp(..., taped=True)): its normal needs holding")
-                    o = beam.orientation
-                    m1 = o[e1] if e1 >= 0 else -1
-                    m2 = o[e2] if e2 >= 0 else -1
-                    strip_rows.append((prev, j, nxt, m1, m2, w, beam))
-        # ghosts and offsets
-        g_src = np.array([g[3] for g in ghosts], dtype=np.int64)
-        g_clamp = np.array([int(self._beams[g[0]].chain[g[1]]) for g in ghosts], dtype=np.int64)
-        g_t = np.array([g[2] for g in ghosts], dtype=float).reshape(-1, 3)
-        off_geo = np.array([self._frame_geometry(k) for k, _ in self._offsets], dtype=np.int64).reshape(-1, 5)
-        off_d = np.array([d for _, d in self._offsets], dtype=float)
-        # links
-        if self._links:
-            li, lj, lea, ll0, lto, lfr = (np.concatenate(a) for a in zip(*self._links))
-        else:
-            li = lj = np.zeros(0, np.int64)
-            lea = ll0 = np.zeros(0)
-            lto = lfr = np.zeros(0, bool)
-        # clusters
-        ptr = np.zeros(len(self._clusters) + 1, dtype=np.int64)
-        ptr[1:] = np.cumsum([c[0].size for c in self._clusters])
-        cl_nodes = np.concatenate([c[0] for c in self._clusters]) if self._clusters else np.zeros(0, np.int64)
-        cl_seg = np.concatenate([np.stack([c[0][:-1], c[0][1:]], axis=1) for c in self._clusters]) if self._clusters else np.zeros((0, 2), np.int64)
-        tri_idx, tri_grad, tri_par = self._pack_triangles()
-        # at zero voltage the term is left out: V = 0 is the mechanical model bit for bit
-        diel_on = self._dielectric is not None and self.dielectric_coefficient > 0.0
-        rod_idx, rod_par = self._pack_rods()
-        cl_seg_cluster = np.repeat(np.arange(len(self._clusters)), [c[0].size - 1 for c in self._clusters])
-        P = Packed(
+        virtual = Virtual(
             n=n,
-            ghost_src=g_src,
-            ghost_clamp=g_clamp,
-            ghost_t=g_t,
-            off_geo=off_geo,
-            off_d=off_d,
-            link_ij=np.stack([li, lj], axis=1).astype(np.int64).reshape(-1, 2),
-            link_EA=lea.astype(float),
-            link_L0=ll0.astype(float),
-            link_tension_only=lto.astype(bool),
-            link_frame=lfr.astype(bool),
-            link_block=np.zeros(lfr.size, bool),
-            clu_ptr=ptr,
-            clu_nodes=cl_nodes.astype(np.int64),
-            clu_EA=np.array([c[1] for c in self._clusters], dtype=float),
-            clu_L0=np.array([c[2] for c in self._clusters], dtype=float),
-            clu_tension_only=np.array([c[3] for c in self._clusters], dtype=bool),
-            clu_seg=cl_seg.astype(np.int64),
-            clu_seg_cluster=cl_seg_cluster.astype(np.int64),
-            clu_work=np.zeros(cl_nodes.size),
-            beam_idx=np.array([r[:3] for r in beam_rows], dtype=np.int64).reshape(-1, 3),
-            beam_EI=np.array([r[3] for r in beam_rows], dtype=float),
-            beam_k0=np.zeros(len(beam_rows)),
-            beam_w=np.array([r[4] for r in beam_rows], dtype=float),
-            beam_l=np.zeros(len(beam_rows)),
-            strip_idx=np.array([r[:5] for r in strip_rows], dtype=np.int64).reshape(-1, 5),
-            strip_par=np.zeros((len(strip_rows), 9)),
-            strip_blocks=np.zeros((len(strip_rows), 5, 6)),
-            tri_idx=tri_idx,
-            tri_grad=tri_grad,
-            tri_par=tri_par,
-            rod_idx=rod_idx,
-            rod_par=rod_par,
-            rod_blocks=np.zeros((rod_idx.shape[0], rod_element.ROWS, 6)),
-            diel_idx=self._dielectric[0] if diel_on else np.zeros((0, 3), np.int64),
-            diel_par=(np.column_stack([self._dielectric[1], np.full(len(self._dielectric[1]),
-                      self.dielectric_coefficient)]) if diel_on else np.zeros((0, 2))),
+            ghost_src=np.array([g[3] for g in ghosts], dtype=np.int64),
+            ghost_clamp=np.array([int(self._beams[g[0]].chain[g[1]]) for g in ghosts], dtype=np.int64),
+            ghost_t=np.array([g[2] for g in ghosts], dtype=float).reshape(-1, 3),
+            off_geo=np.array([self._frame_geometry(k) for k, _ in self._offsets], dtype=np.int64).reshape(-1, 5),
+            off_d=np.array([d for _, d in self._offsets], dtype=float),
         )
-        # rest curvatures, lengths and strip rest measures from the reference geometry, with the
-        # clamp ghosts mirrored about the clamps' rest tangents
+        # rest curvatures, lengths and strip rest measures come from the reference geometry, with
+        # the clamp ghosts mirrored about the clamps' rest tangents
         X = np.zeros((n + n_off + len(ghosts), 3))
-        X[:n] = x
+        X[:n] = self.nodes
         rest_t = np.array([self._clamps[int(self._beams[g[0]].chain[g[1]])][2] for g in ghosts]).reshape(-1, 3)
-        place_virtual(X, P._replace(ghost_t=rest_t))
-        if beam_rows:
-            s, i, f = P.beam_idx.T
-            P.beam_k0[:] = curvatures(X, P.beam_idx)
-            P.beam_l[:] = 0.5 * (np.linalg.norm(X[i] - X[s], axis=1) + np.linalg.norm(X[f] - X[i], axis=1))
-        if strip_rows:
-            idx = P.strip_idx
-            la = np.linalg.norm(X[idx[:, 1]] - X[idx[:, 0]], axis=1)
-            lb = np.linalg.norm(X[idx[:, 2]] - X[idx[:, 1]], axis=1)
-            w = np.array([r[5] for r in strip_rows])
-            lbar = 0.5 * (la + lb)
-            par = P.strip_par
-            par[:, LBAR] = lbar
-            par[:, KB] = w / lbar
-            # the twist at a taped clamp spans half an edge (clamp to edge midpoint)
-            par[:, KT] = np.where(w < 1.0, 1.0 / (0.5 * lbar), 1.0 / lbar)
-            par[:, EIW] = [r[6].EI for r in strip_rows]
-            par[:, EIS] = [r[6].EI_strong for r in strip_rows]
-            par[:, GJ] = [r[6].GJ for r in strip_rows]
-            par[:, [KW0, KN0, TAU0]] = strip_measures(X, idx)
-        return P
+        place_virtual(X, virtual._replace(ghost_t=rest_t))
+        rest = Rest(X=X, ghost_id={(b, end): n + n_off + g for g, (b, end, _, _) in enumerate(ghosts)})
+        parts = [e.pack(self, rest) for e in ELEMENTS]
+        kinds = tuple(e.Kind() for e, part in zip(ELEMENTS, parts) if e is links or part[0].shape[0] > 0)
+        return Packed(*virtual, *(a for part in parts for a in part), kinds)

@@ -23,6 +23,7 @@ and Gent triangles get the Gershgorin row sums of their Hessian (central differe
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 import numpy as np
 from numba import njit
@@ -41,6 +42,52 @@ _C = math.cos(math.pi / 3.0)
 _S = math.sin(math.pi / 3.0)
 DIRECTIONS = np.array([[1.0, 0.0], [_C, _S], [-_C, _S]])
 """The lattice directions m_k (the base side is the x axis), as the FEM's linear law."""
+
+
+class Fields(NamedTuple):
+    """The membrane triangles' arrays in :class:`dr.kernels.Packed`."""
+
+    tri_idx: np.ndarray  # (t, 3) membrane triangles
+    tri_grad: np.ndarray  # (t, 3, 2) flat shape-function gradients, 1/mm
+    tri_par: np.ndarray  # (t, 6) area, E h, lambda, tension-only, law, Gent Jm
+
+
+class TrianglesKind(NamedTuple):
+    """Marks a :class:`dr.kernels.Packed` that has membrane triangles (the kernels dispatch on its type)."""
+
+
+Kind = TrianglesKind
+
+
+def pack(model, rest) -> Fields:
+    """The membrane triangles of ``model`` (:meth:`dr.Model.add_triangles`) on its flat
+    reference nodes; ``rest`` is unused."""
+    if not model._triangles:
+        return Fields(np.zeros((0, 3), np.int64), np.zeros((0, 3, 2)), np.zeros((0, N_PAR)))
+    idx, grads, pars = [], [], []
+    for t, E, h, lam, tension_only, law, jm in model._triangles:
+        g, area = shape_gradients(model.nodes[t][:, :, :2])
+        par = np.zeros((t.shape[0], N_PAR))
+        par[:, AREA] = area
+        par[:, EH] = E * h
+        par[:, LAM] = lam
+        par[:, TONLY] = float(tension_only)
+        par[:, LAW] = law
+        par[:, JM] = jm
+        idx.append(t)
+        grads.append(g)
+        pars.append(par)
+    return Fields(np.vstack(idx), np.vstack(grads), np.vstack(pars))
+
+
+def forces(X: np.ndarray, P, moment: np.ndarray) -> dict[str, np.ndarray]:
+    """Nothing: the triangles report no forces (``moment`` is left alone)."""
+    return {}
+
+
+def edges(P) -> np.ndarray:
+    """Node pairs (k, 2) of the triangles' three sides."""
+    return np.concatenate([P.tri_idx[:, :2], P.tri_idx[:, 1:], P.tri_idx[:, ::2]])
 
 
 def shape_gradients(flat: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -263,6 +310,13 @@ def energy(X, P):
         _gather(X, P.tri_idx[k], xl)
         e += triangle_local(xl, P.tri_grad[k], P.tri_par[k], xl, False)
     return e
+
+
+@njit(cache=True, error_model="numpy")
+def strain_energy(X, P):
+    """Strain energy (membrane, frame bending, frame torsion, frame axial) of all triangles,
+    N mm: membrane only."""
+    return energy(X, P), 0.0, 0.0, 0.0
 
 
 @njit(cache=True, error_model="numpy")
