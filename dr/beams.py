@@ -21,12 +21,6 @@ class Fields(NamedTuple):
     beam_l: np.ndarray  # mm, rest length attributed to the node
 
 
-class BeamsKind(NamedTuple):
-    """Marks a :class:`dr.kernels.Packed` that has spline beams (the kernels dispatch on its type)."""
-
-
-Kind = BeamsKind
-
 
 def pack(model, rest) -> Fields:
     """The isotropic beams of ``model`` (:meth:`dr.Model.add_beam` without ``EI_strong``), their

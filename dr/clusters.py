@@ -24,12 +24,6 @@ class Fields(NamedTuple):
     clu_work: np.ndarray  # (len(clu_nodes),) scratch: segment lengths of the current step
 
 
-class ClustersKind(NamedTuple):
-    """Marks a :class:`dr.kernels.Packed` that has clustered cables (the kernels dispatch on its type)."""
-
-
-Kind = ClustersKind
-
 
 def pack(model, rest) -> Fields:
     """The clustered cables of ``model`` (:meth:`dr.Model.add_cluster`); ``rest`` is unused."""

@@ -33,12 +33,6 @@ class Fields(NamedTuple):
     diel_par: np.ndarray  # (d, 2) flat area (mm^2), coefficient c (N/mm)
 
 
-class DielectricKind(NamedTuple):
-    """Marks a :class:`dr.kernels.Packed` that has a dielectric film (the kernels dispatch on its type)."""
-
-
-Kind = DielectricKind
-
 
 def pack(model, rest) -> Fields:
     """The dielectric film of ``model`` (:meth:`dr.Model.add_dielectric`) at its coefficient;

@@ -25,7 +25,7 @@ from __future__ import annotations
 from typing import NamedTuple
 
 import numpy as np
-from numba import literal_unroll, njit
+from numba import njit
 from numba.extending import overload
 
 from .blocks import add_reflected
@@ -37,7 +37,7 @@ from .vec import add_to, axpy, dot, get, scale, sub
 class Virtual(NamedTuple):
     """The fields of :class:`Packed` that define the virtual nodes. The per-step code passes
     this small record rather than the whole of ``Packed``: a compiled call increments and
-    decrements the reference count of every array in its record arguments, and the 35 of
+    decrements the reference count of every array in its record arguments, and the 37 of
     ``Packed`` cost about 0.5 us per call."""
 
     n: int  # real nodes
@@ -49,12 +49,11 @@ class Virtual(NamedTuple):
 
 
 class Packed(NamedTuple("PackedFields", [*Virtual.__annotations__.items(),
-                                         *((f, t) for e in ELEMENTS for f, t in e.Fields.__annotations__.items()),
-                                         ("kinds", tuple)])):
+                                         *((f, t) for e in ELEMENTS for f, t in e.Fields.__annotations__.items())])):
     """Arrays of a model, as the kernels take them (see :class:`dr.Model`): the fields of
-    :class:`Virtual`, then each element type's ``Fields`` (dr.elements), then ``kinds``: the
-    ``Kind()`` of each element type the model has (links always: the loops over them need one
-    type), which the kernels dispatch on, so that only those are compiled."""
+    :class:`Virtual`, then each element type's ``Fields`` in the order of dr.elements. A type
+    the model lacks has arrays with no rows; every model has this one record type, so the
+    kernels are compiled once for all."""
 
     __slots__ = ()
 
@@ -123,45 +122,56 @@ def pull_back_virtual(X, G, P):
 
 
 # ----------------------------------------------------------------------------- all elements
-# Compiled code cannot loop over modules; it loops (literal_unroll) over the Kind() records in
-# P.kinds, a tuple of distinct types, and these calls pick the element's function by that type
-# when the loop is compiled. Inlined, so that an element's call costs no reference counting of
-# P's arrays, as a direct call of an inlined element function.
-
-_MODULE = {e.Kind: e for e in ELEMENTS}
+# Compiled code cannot loop over modules. Each of these three is written out, once per process,
+# as a straight run of calls, one per element type in the order of ELEMENTS and each only when
+# the model has that element (its first array has rows), and compiled into the caller (inlined):
+# the same code as calls written by hand, so adding an element type costs a step nothing.
 
 
-def element_gradient(kind, X, P, G, D):
-    """``gradient`` of the element type that ``kind`` (a ``Kind()``) marks; compiled code only."""
+def _in_turn(function: str, arguments: str, *, start: str, each: str, result: str):
+    """A Python function of (X, P, ``arguments``) that calls ``function`` of each element
+    module the model has, each call's value put into the statement ``each`` (``{}``)."""
+    namespace = {}
+    lines = [f"def in_turn(X, P{arguments}):", f"    {start}"]
+    for k, element in enumerate(ELEMENTS):
+        namespace[f"element_{k}"] = getattr(element, function)
+        lines += [f"    if P.{element.Fields._fields[0]}.shape[0] > 0:",
+                  "        " + each.format(f"element_{k}(X, P{arguments})")]
+    lines.append(f"    return {result}")
+    exec("\n".join(lines), namespace)
+    return namespace["in_turn"]
+
+
+def all_gradients(X, P, G, D):
+    """Each element type's ``gradient`` in turn; the largest element force (N). Compiled code only."""
     raise NotImplementedError
 
 
-def element_energy(kind, X, P):
-    """``strain_energy`` of the element type that ``kind`` marks; compiled code only."""
+def all_strain_energies(X, P):
+    """The sum of each element type's ``strain_energy``. Compiled code only."""
     raise NotImplementedError
 
 
-def element_stiffness(kind, X, P, S, with_links):
-    """``stiffness`` of the element type that ``kind`` marks; compiled code only."""
+def all_stiffnesses(X, P, S, with_links):
+    """Each element type's ``stiffness`` in turn. Compiled code only."""
     raise NotImplementedError
 
 
-@overload(element_gradient, inline="always")
-def _gradient_of(kind, X, P, G, D):
-    fn = _MODULE[kind.instance_class].gradient
-    return lambda kind, X, P, G, D: fn(X, P, G, D)
+@overload(all_gradients, inline="always")
+def _all_gradients(X, P, G, D):
+    return _in_turn("gradient", ", G, D", start="fmax = 0.0", each="fmax = max(fmax, {})", result="fmax")
 
 
-@overload(element_energy, inline="always")
-def _energy_of(kind, X, P):
-    fn = _MODULE[kind.instance_class].strain_energy
-    return lambda kind, X, P: fn(X, P)
+@overload(all_strain_energies, inline="always")
+def _all_strain_energies(X, P):
+    return _in_turn("strain_energy", "", start="e_mem = e_bend = e_twist = e_ax = 0.0",
+                    each="m, b, t, a = {}; e_mem += m; e_bend += b; e_twist += t; e_ax += a",
+                    result="e_mem, e_bend, e_twist, e_ax")
 
 
-@overload(element_stiffness, inline="always")
-def _stiffness_of(kind, X, P, S, with_links):
-    fn = _MODULE[kind.instance_class].stiffness
-    return lambda kind, X, P, S, with_links: fn(X, P, S, with_links)
+@overload(all_stiffnesses, inline="always")
+def _all_stiffnesses(X, P, S, with_links):
+    return _in_turn("stiffness", ", S, with_links", start="pass", each="{}", result="None")
 
 
 @njit(cache=True, error_model="numpy")
@@ -180,9 +190,7 @@ def gradient(X, P, G, D):
     G[:] = 0.0
     if D.shape[0] > 0:
         D[:] = 0.0
-    fmax = 0.0
-    for kind in literal_unroll(P.kinds):
-        fmax = max(fmax, element_gradient(kind, X, P, G, D))
+    fmax = all_gradients(X, P, G, D)
     if has_virtual:
         pull_back_virtual(X, G, vp)
         if D.shape[0] > 0:
@@ -194,14 +202,7 @@ def gradient(X, P, G, D):
 def energy(X, P):
     """Strain energy split (membrane, frame bending, frame torsion, frame axial), N mm."""
     place_virtual(X, P)
-    e_mem = e_bend = e_twist = e_ax = 0.0
-    for kind in literal_unroll(P.kinds):
-        m, b, t, a = element_energy(kind, X, P)
-        e_mem += m
-        e_bend += b
-        e_twist += t
-        e_ax += a
-    return e_mem, e_bend, e_twist, e_ax
+    return all_strain_energies(X, P)
 
 
 @njit(cache=True, error_model="numpy")
@@ -216,8 +217,7 @@ def stiffness(X, P, S, with_links):
     if X.shape[0] > P.n:
         place_virtual(X, virtual(P))
     S[:] = 0.0
-    for kind in literal_unroll(P.kinds):
-        element_stiffness(kind, X, P, S, with_links)
+    all_stiffnesses(X, P, S, with_links)
     n = P.n
     base = n + P.off_geo.shape[0]
     for k in range(P.off_geo.shape[0]):

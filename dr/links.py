@@ -22,12 +22,6 @@ class Fields(NamedTuple):
     link_block: np.ndarray  # bool: its stiffness is in the frame mass (dr.frame_mass), not in D
 
 
-class LinksKind(NamedTuple):
-    """Marks a :class:`dr.kernels.Packed` that has links (the kernels dispatch on its type)."""
-
-
-Kind = LinksKind
-
 
 def pack(model, rest) -> Fields:
     """The links of ``model`` (:meth:`dr.Model.add_link`); ``rest`` is unused."""

@@ -28,7 +28,7 @@ from typing import Iterable, NamedTuple, Sequence
 import numpy as np
 
 from .errors import DRError
-from . import dielectric as diel_element, links
+from . import dielectric as diel_element
 from . import triangles as tri_element
 from .elements import ELEMENTS
 from .frames import node_frame
@@ -465,5 +465,4 @@ class Model:
         place_virtual(X, virtual._replace(ghost_t=rest_t))
         rest = Rest(X=X, ghost_id={(b, end): n + n_off + g for g, (b, end, _, _) in enumerate(ghosts)})
         parts = [e.pack(self, rest) for e in ELEMENTS]
-        kinds = tuple(e.Kind() for e, part in zip(ELEMENTS, parts) if e is links or part[0].shape[0] > 0)
-        return Packed(*virtual, *(a for part in parts for a in part), kinds)
+        return Packed(*virtual, *(a for part in parts for a in part))

@@ -43,12 +43,6 @@ class Fields(NamedTuple):
     rod_blocks: np.ndarray  # (r, 7, 6) scratch: mass blocks in the vertex's material frame
 
 
-class RodsKind(NamedTuple):
-    """Marks a :class:`dr.kernels.Packed` that has rods (the kernels dispatch on its type)."""
-
-
-Kind = RodsKind
-
 
 def pack(model, rest) -> Fields:
     """The rods of ``model`` (:meth:`dr.Model.add_rod`) with their rest frames and curvatures

@@ -32,12 +32,6 @@ class Fields(NamedTuple):
     strip_blocks: np.ndarray  # (k, 5, 6) scratch: mass blocks in the material frame
 
 
-class StripsKind(NamedTuple):
-    """Marks a :class:`dr.kernels.Packed` that has strips (the kernels dispatch on its type)."""
-
-
-Kind = StripsKind
-
 
 def pack(model, rest) -> Fields:
     """The strip beams of ``model`` (:meth:`dr.Model.add_beam` with ``EI_strong``), their rest

@@ -52,12 +52,6 @@ class Fields(NamedTuple):
     tri_par: np.ndarray  # (t, 6) area, E h, lambda, tension-only, law, Gent Jm
 
 
-class TrianglesKind(NamedTuple):
-    """Marks a :class:`dr.kernels.Packed` that has membrane triangles (the kernels dispatch on its type)."""
-
-
-Kind = TrianglesKind
-
 
 def pack(model, rest) -> Fields:
     """The membrane triangles of ``model`` (:meth:`dr.Model.add_triangles`) on its flat
