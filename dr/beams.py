@@ -2,12 +2,14 @@
 
 from __future__ import annotations
 
-from typing import NamedTuple
+from dataclasses import dataclass
+from typing import Iterator, NamedTuple, Sequence
 
 import numpy as np
 from numba import njit
 
-from .triplets import beam_triplets
+from .checks import positive
+from .errors import DRError
 from .vec import add, add_to, cross, get, norm, scale, sub
 
 
@@ -20,6 +22,103 @@ class Fields(NamedTuple):
     beam_w: np.ndarray  # weight (1/2 at a clamp: the other half belongs to the mirrored beam)
     beam_l: np.ndarray  # mm, rest length attributed to the node
 
+
+@dataclass
+class Beam:
+    """A beam as :meth:`dr.Model.add_beam` was given it (EI_strong None: the spline beam)."""
+
+    chain: np.ndarray
+    EI: float
+    EA: float | None
+    EI_strong: float | None
+    GJ: float | None
+    orientation: np.ndarray | None
+    closed: bool
+
+
+class Methods:
+    """The :class:`dr.Model` method that adds beams: spline beams, and strips (:mod:`dr.strips`)."""
+
+    def add_beam(
+        self,
+        chain: Sequence[int],
+        EI: float,
+        EA: float | None = None,
+        *,
+        EI_strong: float | None = None,
+        GJ: float | None = None,
+        orientation: Sequence[int] | None = None,
+        closed: bool = False,
+    ) -> None:
+        """Add a beam along ``chain``; its rest shape is the reference geometry.
+
+        Without ``EI_strong`` it is the isotropic spline beam (Adriaenssens & Barnes):
+        M = EI (|kappa| - kappa_0) per node triplet. Having no material frame it cannot tell
+        which way its rest curvature points, so where it is naturally curved a tilt of the
+        curvature plane costs nothing at first order (energy ~ tilt^4): give ``EI_strong``
+        (= EI for an isotropic section), ``GJ`` and ``orientation`` for a rod that can. With ``EI_strong`` and ``GJ`` it is a strip:
+        weak-axis EI, strong-axis EI_strong, torsion GJ, its plane set by ``orientation``
+        (one node per edge, e.g. the membrane node next to the edge); the forces are the exact
+        gradient of one energy, so the orientation nodes get their reactions. ``EA`` adds an
+        axial link per segment (role 'frame'). Units: N mm^2, N.
+        """
+        c = self.node_indices("beam chain", chain)
+        if c.size < 3 and not closed:
+            raise DRError("a beam chain needs at least 3 nodes")
+        if len(set(c.tolist())) != c.size:
+            raise DRError("beam chain visits a node twice; for a loop give each node once and closed=True")
+        ei = positive("beam EI (N mm^2)", EI)
+        n_edges = c.size if closed else c.size - 1
+        nxt = np.roll(c, -1)[:n_edges]
+        self.rest_lengths("beam edge", c[:n_edges], nxt, None)
+        ends = (np.roll(c, 1), np.roll(c, -1)) if closed else (c[:-2], c[2:])
+        x = self.ref_positions()
+        folded = np.flatnonzero(np.linalg.norm(x[ends[1]] - x[ends[0]], axis=1) == 0.0)
+        if folded.size:
+            k = folded[0]
+            raise DRError(f"beam chain folds back on itself: nodes {ends[0][k]} and {ends[1][k]} on either side of "
+                          "a node coincide (no curvature is defined there); move them apart")
+        orient = None
+        if orientation is not None:
+            orient = self.node_indices("beam orientation", orientation, True)
+            if orient.size != n_edges:
+                raise DRError(f"beam orientation needs one node per edge ({n_edges}), got {orient.size}")
+        if EI_strong is not None:
+            if GJ is None or orient is None:
+                raise DRError("a strip beam (EI_strong given) also needs GJ and orientation")
+            positive("beam EI_strong (N mm^2)", EI_strong)
+            positive("beam GJ (N mm^2)", GJ)
+        ea = None if EA is None else positive("beam EA (N)", EA)
+        self.stored[Fields].append(Beam(c, ei, ea, EI_strong, GJ, orient, closed))
+        if ea is not None:
+            self.add_link(c[:n_edges], nxt, ea, role="frame")
+
+
+
+
+def beam_triplets(model, ghost_id: dict, *, strip: bool) -> Iterator[tuple]:
+    """(prev, node, next, weight, edge slot before, edge slot after, beam) of every node triplet
+    of the strip beams (``strip``) or the isotropic ones of ``model``, beam by beam.
+
+    A closed beam has one triplet per node; an open one per inner node, and at a clamped end
+    one with the clamp ghost (row ``ghost_id[(beam number, end)]``) at half weight (the other
+    half belongs to the mirrored beam). Edge slots index the beam's orientation (-1: none).
+    """
+    for b, beam in enumerate(model.stored[Fields]):
+        if (beam.EI_strong is not None) != strip:
+            continue
+        c = beam.chain
+        m = c.size
+        if beam.closed:
+            for p in range(m):
+                yield c[p - 1], c[p], c[(p + 1) % m], 1.0, p - 1, p, beam
+            continue
+        for p in range(1, m - 1):
+            yield c[p - 1], c[p], c[p + 1], 1.0, p - 1, p, beam
+        if (b, 0) in ghost_id:
+            yield ghost_id[(b, 0)], c[0], c[1], 0.5, -1, 0, beam
+        if (b, -1) in ghost_id:
+            yield c[-2], c[-1], ghost_id[(b, -1)], 0.5, m - 2, -1, beam
 
 
 def pack(model, rest) -> Fields:

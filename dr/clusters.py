@@ -2,11 +2,13 @@
 
 from __future__ import annotations
 
-from typing import NamedTuple
+from typing import NamedTuple, Sequence
 
 import numpy as np
 from numba import njit
 
+from .checks import positive
+from .errors import DRError
 from .links import tension, tensions
 from .vec import add_to, get, norm, scale, sub
 
@@ -24,10 +26,42 @@ class Fields(NamedTuple):
     clu_work: np.ndarray  # (len(clu_nodes),) scratch: segment lengths of the current step
 
 
+class Methods:
+    """The :class:`dr.Model` method that adds clustered cables."""
+
+    def add_cluster(
+        self,
+        chain: Sequence[int],
+        EA: float,
+        rest_length: float | None = None,
+        tension_only: bool = True,
+    ) -> int:
+        """Add a clustered cable over ``chain`` (frictionless pulleys at the inner nodes).
+
+        One tension for the whole chain: T = EA/L0 (sum l_i - L0). Returns its cluster number.
+        """
+        c = self.node_indices("cluster chain", chain, True)
+        if c.size < 2:
+            raise DRError("a cluster chain needs at least 2 nodes")
+        if np.any(c[1:] == c[:-1]):
+            raise DRError("cluster chain repeats a node in consecutive places")
+        ea = positive("cluster EA (N)", EA)
+        L = float(np.sum(self.rest_lengths("cluster", c[:-1], c[1:], None)))
+        L0 = L if rest_length is None else positive("cluster rest_length (mm)", rest_length)
+        self.stored[Fields].append((c, ea, L0, bool(tension_only)))
+        return len(self.stored[Fields]) - 1
+
+
+def scale_membrane(stored: list, factor: float) -> list:
+    """The cables of ``stored`` with rest lengths times ``factor``."""
+    return [(c, ea, L0 * factor, to) for c, ea, L0, to in stored]
+
+
+
 
 def pack(model, rest) -> Fields:
     """The clustered cables of ``model`` (:meth:`dr.Model.add_cluster`); ``rest`` is unused."""
-    cl = model._clusters
+    cl = model.stored[Fields]
     ptr = np.zeros(len(cl) + 1, dtype=np.int64)
     ptr[1:] = np.cumsum([c[0].size for c in cl])
     nodes = np.concatenate([c[0] for c in cl]) if cl else np.zeros(0, np.int64)

@@ -19,6 +19,8 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
+from .errors import DRError
+from .triangles import shape_gradients
 from .blocks import gershgorin
 from .vec import add_to, cross, dot, get, sub
 
@@ -33,13 +35,48 @@ class Fields(NamedTuple):
     diel_par: np.ndarray  # (d, 2) flat area (mm^2), coefficient c (N/mm)
 
 
+class Methods:
+    """The :class:`dr.Model` methods of the dielectric film; ``dielectric_coefficient`` is its
+    c (N/mm), set by :meth:`add_dielectric` and changed with the voltage."""
+
+    dielectric_coefficient = 0.0
+
+    def add_dielectric(self, triangles: np.ndarray, coefficient: float) -> None:
+        """Make the film over node triples ``triangles`` an ideal dielectric (:mod:`dr.dielectric`).
+
+        Its energy is -c a^2 / A per triangle (current area a, flat area A in the reference),
+        c = ``coefficient`` (N/mm, >= 0) from :func:`scenes.electric.dielectric_coefficient`;
+        change the voltage by setting ``dielectric_coefficient``. The reference must be flat.
+        """
+        t = np.asarray(triangles)
+        if t.ndim != 2 or t.shape[1] != 3 or t.shape[0] == 0:
+            raise DRError("dielectric triangles must be a non-empty (t, 3) array of node indices")
+        t = self.node_indices("dielectric triangle nodes", t.ravel()).reshape(-1, 3)
+        c = float(coefficient)
+        if not np.isfinite(c) or c < 0:
+            raise DRError(f"dielectric coefficient = {coefficient!r} must be a number >= 0 (N/mm)")
+        _, area = shape_gradients(self.nodes[t][:, :, :2])
+        if np.any(area <= 1e-12 * np.ptp(self.nodes[:, :2]) ** 2):
+            raise DRError("a dielectric triangle has no area: its three nodes lie on one line")
+        self.stored[Fields][:] = [(t, area)]
+        self.dielectric_coefficient = c
+
+    def dielectric_energy(self, x: np.ndarray) -> tuple[float, float]:
+        """(electrostatic energy N mm, current film area mm^2) at positions x (n, 3); (0, 0)
+        without a dielectric."""
+        if not self.stored[Fields]:
+            return 0.0, 0.0
+        return energies(x, *self.stored[Fields][0], self.dielectric_coefficient)
+
+
+
 
 def pack(model, rest) -> Fields:
     """The dielectric film of ``model`` (:meth:`dr.Model.add_dielectric`) at its coefficient;
     ``rest`` is unused. At zero voltage it has no rows: V = 0 is the mechanical model bit for bit."""
-    if model._dielectric is None or model.dielectric_coefficient <= 0.0:
+    if not model.stored[Fields] or model.dielectric_coefficient <= 0.0:
         return Fields(np.zeros((0, 3), np.int64), np.zeros((0, 2)))
-    t, area = model._dielectric
+    t, area = model.stored[Fields][0]
     return Fields(t, np.column_stack([area, np.full(len(area), model.dielectric_coefficient)]))
 
 

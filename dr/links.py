@@ -2,11 +2,12 @@
 
 from __future__ import annotations
 
-from typing import NamedTuple
+from typing import NamedTuple, Sequence
 
 import numpy as np
 from numba import njit
 
+from .errors import DRError
 from .blocks import add_block
 from .vec import add_to, get, norm, scale, sub
 
@@ -22,11 +23,48 @@ class Fields(NamedTuple):
     link_block: np.ndarray  # bool: its stiffness is in the frame mass (dr.frame_mass), not in D
 
 
+class Methods:
+    """The :class:`dr.Model` method that adds links."""
+
+    def add_link(
+        self,
+        i: int | Sequence[int],
+        j: int | Sequence[int],
+        EA: float | Sequence[float],
+        rest_length: float | Sequence[float] | None = None,
+        tension_only: bool = False,
+        role: str = "membrane",
+    ) -> None:
+        """Add links (bars or cables) between nodes i and j: T = EA/L0 (L - L0).
+
+        ``role`` ('membrane' or 'frame') decides where their energy is counted.
+        """
+        ii = self.node_indices("link i", np.atleast_1d(i), True)
+        jj = self.node_indices("link j", np.atleast_1d(j), True)
+        if ii.shape != jj.shape:
+            raise DRError("link i and j must have the same length")
+        if np.any(ii == jj):
+            raise DRError("a link joins a node to itself; give two different nodes")
+        ea = np.broadcast_to(np.asarray(EA, dtype=float), ii.shape).copy()
+        if np.any(~np.isfinite(ea)) or np.any(ea <= 0):
+            raise DRError("link EA must be positive (N)")
+        if role not in ("membrane", "frame"):
+            raise DRError(f"link role = {role!r}: use 'membrane' or 'frame'")
+        L0 = self.rest_lengths("link", ii, jj, rest_length)
+        self.stored[Fields].append((ii, jj, ea, L0, np.full(ii.shape, tension_only), np.full(ii.shape, role == "frame")))
+
+
+def scale_membrane(stored: list, factor: float) -> list:
+    """The membrane links of ``stored`` with rest lengths times ``factor``; frame links as they are."""
+    return [(i, j, ea, np.where(frame, L0, L0 * factor), to, frame) for i, j, ea, L0, to, frame in stored]
+
+
+
 
 def pack(model, rest) -> Fields:
     """The links of ``model`` (:meth:`dr.Model.add_link`); ``rest`` is unused."""
-    if model._links:
-        li, lj, lea, ll0, lto, lfr = (np.concatenate(a) for a in zip(*model._links))
+    if model.stored[Fields]:
+        li, lj, lea, ll0, lto, lfr = (np.concatenate(a) for a in zip(*model.stored[Fields]))
     else:
         li = lj = np.zeros(0, np.int64)
         lea = ll0 = np.zeros(0)

@@ -451,8 +451,8 @@ def _blocks(model: Model, P: Packed, forces: dict[str, np.ndarray]) -> dict[str,
 
 def _frame_arc(model: Model) -> tuple[np.ndarray | None, np.ndarray | None]:
     """The first beam chain's nodes and their reference arc lengths (mm); None, None without one."""
-    if not model._beams:
+    if not model.beams:
         return None, None
-    chain = model._beams[0].chain
+    chain = model.beams[0].chain
     seg = np.linalg.norm(np.diff(model.nodes[chain], axis=0), axis=1)
     return chain, np.concatenate([[0.0], np.cumsum(seg)])

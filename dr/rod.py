@@ -19,11 +19,14 @@ the two bond nodes of each edge (-1 where not needed).
 
 from __future__ import annotations
 
-from typing import NamedTuple
+from dataclasses import dataclass
+from typing import NamedTuple, Sequence
 
 import numpy as np
 from numba import njit
 
+from .checks import positive
+from .errors import DRError
 from .blocks import add_rotated, frame_blocks, gershgorin
 from .vec import add, add_to, axpy, cross, dot, get, norm, scale, sub, unit_vjp
 
@@ -43,16 +46,58 @@ class Fields(NamedTuple):
     rod_blocks: np.ndarray  # (r, 7, 6) scratch: mass blocks in the vertex's material frame
 
 
+@dataclass
+class Rod:
+    """A rod as :meth:`dr.Model.add_rod` was given it (bond None: the isotropic rod)."""
+
+    chain: np.ndarray
+    bond: np.ndarray | None
+    EI: float
+    EI_strong: float | None
+    GJ: float | None
+    closed: bool
+
+
+class Methods:
+    """The :class:`dr.Model` method that adds rods."""
+
+    def add_rod(self, chain: Sequence[int], *, EA: float, EI: float, EI_strong: float | None = None,
+                GJ: float | None = None, bond: Sequence[int] | None = None, closed: bool = False) -> None:
+        """Add the discrete rod with bond points (:mod:`dr.rod`, the FEM reference's frame).
+
+        With ``EI_strong`` and ``GJ`` it is the strip (weak-axis EI, strong-axis, torsion; its
+        plane set by ``bond``, one bond node per chain node); otherwise the isotropic rod.
+        Edges whose two ends are supported on all axes keep their flat frame. ``EA`` adds an
+        axial link per edge (role 'frame'). Units: N mm^2, N.
+        """
+        c = self.node_indices("rod chain", chain)
+        if c.size < 3:
+            raise DRError("a rod chain needs at least 3 nodes")
+        b = None
+        if EI_strong is not None:
+            if GJ is None or bond is None:
+                raise DRError("a strip rod (EI_strong given) also needs GJ and bond nodes")
+            b = self.node_indices("rod bond", bond)
+            if b.size != c.size:
+                raise DRError(f"rod bond needs one node per chain node ({c.size}), got {b.size}")
+            positive("rod EI_strong (N mm^2)", EI_strong)
+            positive("rod GJ (N mm^2)", GJ)
+        self.stored[Fields].append(Rod(c, b, positive("rod EI (N mm^2)", EI), EI_strong, GJ, bool(closed)))
+        n_edges = c.size if closed else c.size - 1
+        self.add_link(c[:n_edges], np.roll(c, -1)[:n_edges], positive("rod EA (N)", EA), role="frame")
+
+
+
 
 def pack(model, rest) -> Fields:
     """The rods of ``model`` (:meth:`dr.Model.add_rod`) with their rest frames and curvatures
     from the reference nodes; ``rest`` is unused."""
-    if not model._rods:
+    if not model.stored[Fields]:
         return Fields(np.zeros((0, ROWS), np.int64), np.zeros((0, N_PAR)), np.zeros((0, ROWS, 6)))
     held = model.fixed.all(axis=1)
     X = model.nodes
     idx_all, par_all = [], []
-    for rod in model._rods:
+    for rod in model.stored[Fields]:
         c, m = rod.chain, rod.chain.size
         n_edges = m if rod.closed else m - 1
         ends = np.column_stack([c[:n_edges], np.roll(c, -1)[:n_edges]])

@@ -15,7 +15,7 @@ import numpy as np
 from numba import njit
 
 from .errors import DRError
-from .triplets import beam_triplets
+from .beams import beam_triplets
 from .blocks import add_rotated, frame_blocks, gershgorin
 from .frames import gather, node_frame, node_frame_vjp, scatter
 from .vec import add, add_to, axpy, cross, dot, get, norm, scale, sub, unit_vjp
@@ -39,7 +39,7 @@ def pack(model, rest) -> Fields:
     strip clamped without tape (its normal needs holding)."""
     rows = []
     for prev, j, nxt, w, e1, e2, beam in beam_triplets(model, rest.ghost_id, strip=True):
-        if w < 1.0 and not model._clamps[int(j)][1]:
+        if w < 1.0 and not model.clamps[int(j)][1]:
             raise DRError(f"strip beam clamped at node {j} must be taped (clamp(..., taped=True)): its normal needs holding")
         o = beam.orientation
         rows.append((prev, j, nxt, o[e1] if e1 >= 0 else -1, o[e2] if e2 >= 0 else -1, w, beam))

@@ -28,6 +28,8 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
+from .checks import positive
+from .errors import DRError
 from .blocks import add_block
 from .vec import add_to, axpy, get, norm, scale
 
@@ -52,14 +54,49 @@ class Fields(NamedTuple):
     tri_par: np.ndarray  # (t, 6) area, E h, lambda, tension-only, law, Gent Jm
 
 
+class Methods:
+    """The :class:`dr.Model` method that adds membrane triangles."""
+
+    def add_triangles(self, triangles: np.ndarray, *, E: float, thickness: float, prestretch: float,
+                      law: str = "linear", tension_only: bool = True, gent_jm: float = np.inf) -> None:
+        """Add constant-strain membrane triangles (:mod:`dr.triangles`) over node triples.
+
+        The reference triangles lie in the plane z = const of the nodes (the flat film); the
+        rest state is that shrunk by 1 / ``prestretch``. ``law`` is 'linear' (the link-net
+        law, lattice directions at 0, 60, 120 deg from the x axis), 'neo-hookean' or 'gent'
+        (with ``gent_jm``, Gent's Jm > 0). Units: E in MPa, the mounted thickness in mm.
+        """
+        t = np.asarray(triangles)
+        if t.ndim != 2 or t.shape[1] != 3 or t.shape[0] == 0:
+            raise DRError("triangles must be a non-empty (t, 3) array of node indices")
+        t = self.node_indices("triangle nodes", t.ravel()).reshape(-1, 3)
+        if law not in LAWS:
+            raise DRError(f"membrane law = {law!r} is not one of {', '.join(map(repr, LAWS))}")
+        flat = self.nodes[t]
+        if np.ptp(flat[:, :, 2]) > 1e-9 * max(np.ptp(self.nodes[:, :2]), 1e-300):
+            raise DRError("membrane triangles need a flat reference: their nodes must share one z (mm)")
+        _, area = shape_gradients(flat[:, :, :2])
+        if np.any(area <= 1e-12 * np.ptp(self.nodes[:, :2]) ** 2):
+            raise DRError("a membrane triangle has no area: its three nodes lie on one line")
+        self.stored[Fields].append((t, positive("membrane E (MPa)", E), positive("membrane thickness (mm)", thickness),
+                                positive("pre-stretch", prestretch), bool(tension_only), LAWS[law],
+                                positive("Gent Jm", gent_jm) if law == "gent" else np.inf))
+
+
+def scale_membrane(stored: list, factor: float) -> list:
+    """The triangles of ``stored`` with rest lengths times ``factor`` (pre-stretch over it)."""
+    return [(t, E, h, lam / factor, to, law, jm) for t, E, h, lam, to, law, jm in stored]
+
+
+
 
 def pack(model, rest) -> Fields:
     """The membrane triangles of ``model`` (:meth:`dr.Model.add_triangles`) on its flat
     reference nodes; ``rest`` is unused."""
-    if not model._triangles:
+    if not model.stored[Fields]:
         return Fields(np.zeros((0, 3), np.int64), np.zeros((0, 3, 2)), np.zeros((0, N_PAR)))
     idx, grads, pars = [], [], []
-    for t, E, h, lam, tension_only, law, jm in model._triangles:
+    for t, E, h, lam, tension_only, law, jm in model.stored[Fields]:
         g, area = shape_gradients(model.nodes[t][:, :, :2])
         par = np.zeros((t.shape[0], N_PAR))
         par[:, AREA] = area
