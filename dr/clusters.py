@@ -7,6 +7,8 @@ from typing import NamedTuple, Sequence
 import numpy as np
 from numba import njit
 
+from results import CellBlock
+
 from .checks import positive
 from .errors import DRError
 from .links import tension, tensions
@@ -81,6 +83,15 @@ def pack(model, rest) -> Fields:
 def forces(X: np.ndarray, P, moment: np.ndarray) -> dict[str, np.ndarray]:
     """The tension of each clustered cable at X, N (``moment`` is left alone)."""
     return {"cluster_tension": tensions(P.clu_EA, P.clu_L0, lengths(X, P), P.clu_tension_only)}
+
+
+def cells(P, real: np.ndarray, forces: dict[str, np.ndarray]) -> dict[str, CellBlock]:
+    """The VTK line block of the cables' segments, each with its cable's tension (N) and number.
+    ``real`` maps a row of X to the real node it is drawn at."""
+    if not P.clu_seg.size:
+        return {}
+    return {"membrane_clusters": CellBlock("line", real[P.clu_seg], {
+        "tension_N": forces["cluster_tension"][P.clu_seg_cluster], "cluster_id": P.clu_seg_cluster.astype(float)})}
 
 
 def edges(P) -> np.ndarray:

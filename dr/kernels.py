@@ -37,7 +37,7 @@ from .vec import add_to, axpy, dot, get, scale, sub
 class Virtual(NamedTuple):
     """The fields of :class:`Packed` that define the virtual nodes. The per-step code passes
     this small record rather than the whole of ``Packed``: a compiled call increments and
-    decrements the reference count of every array in its record arguments, and the 37 of
+    decrements the reference count of every array in its record arguments, and the 35 of
     ``Packed`` cost about 0.5 us per call."""
 
     n: int  # real nodes

@@ -7,8 +7,10 @@ from typing import NamedTuple, Sequence
 import numpy as np
 from numba import njit
 
-from .errors import DRError
+from results import CellBlock
+
 from .blocks import add_block
+from .errors import DRError
 from .vec import add_to, get, norm, scale, sub
 
 
@@ -82,6 +84,21 @@ def pack(model, rest) -> Fields:
 def forces(X: np.ndarray, P, moment: np.ndarray) -> dict[str, np.ndarray]:
     """The tension of each link at X, N (``moment`` is left alone)."""
     return {"link_tension": tensions(P.link_EA, P.link_L0, lengths(X, P), P.link_tension_only)}
+
+
+def cells(P, real: np.ndarray, forces: dict[str, np.ndarray]) -> dict[str, CellBlock]:
+    """VTK line blocks: the membrane links with their tensions (N), the frame links with their
+    axial forces (N) and the mean of their end nodes' ``node_moment`` (N mm). ``real`` maps a
+    row of X to the real node it is drawn at."""
+    blocks = {}
+    mem = ~P.link_frame
+    if mem.any():
+        blocks["membrane_links"] = CellBlock("line", real[P.link_ij[mem]], {"tension_N": forces["link_tension"][mem]})
+    if P.link_frame.any():
+        seg = real[P.link_ij[P.link_frame]]
+        blocks["frame"] = CellBlock("line", seg, {"axial_force_N": forces["link_tension"][P.link_frame],
+                                                  "bending_moment_Nmm": forces["node_moment"][seg].mean(axis=1)})
+    return blocks
 
 
 def edges(P) -> np.ndarray:

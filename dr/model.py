@@ -47,6 +47,10 @@ class Rest(NamedTuple):
 class Model(*(e.Methods for e in ELEMENTS if hasattr(e, "Methods"))):
     """A DR model built node by node (see the module docstring for an example).
 
+    Supports, clamps, loads and offset nodes are its own; the methods that add elements
+    (``add_link``, ``add_cluster``, ``add_beam``, ``add_triangles``, ``add_dielectric``,
+    ``add_rod``) are each element module's ``Methods`` (:mod:`dr.elements`).
+
     Parameters
     ----------
     nodes
@@ -87,6 +91,8 @@ class Model(*(e.Methods for e in ELEMENTS if hasattr(e, "Methods"))):
         return len(self._offsets)
 
     def node_index(self, name: str, i: int, allow_virtual: bool = False) -> int:
+        """``i`` as a node index (virtual nodes too if ``allow_virtual``); DRError naming the
+        argument ``name`` otherwise."""
         limit = self.n + (self.n_virtual if allow_virtual else 0)
         try:
             k = int(i)
@@ -97,6 +103,7 @@ class Model(*(e.Methods for e in ELEMENTS if hasattr(e, "Methods"))):
         return k
 
     def node_indices(self, name: str, idx: Iterable[int], allow_virtual: bool = False) -> np.ndarray:
+        """``idx`` as a non-empty int64 array of node indices, as :meth:`node_index`."""
         arr = np.atleast_1d(np.asarray(list(idx) if not isinstance(idx, np.ndarray) else idx))
         if arr.size == 0:
             raise DRError(f"{name} is empty")
@@ -149,6 +156,8 @@ class Model(*(e.Methods for e in ELEMENTS if hasattr(e, "Methods"))):
 
     # ------------------------------------------------------------------ elements
     def rest_lengths(self, name: str, i: np.ndarray, j: np.ndarray, rest: object) -> np.ndarray:
+        """Rest lengths (mm) of elements between nodes i and j: ``rest`` (a number or one per
+        element) or, if None, their reference distances; DRError naming ``name`` for one <= 0."""
         x = self.ref_positions()
         L = np.linalg.norm(x[j] - x[i], axis=1)
         if rest is None:

@@ -419,31 +419,16 @@ def _with_finite_energy(run: Run, energy: dict[str, float]) -> Run:
 
 
 def _blocks(model: Model, P: Packed, forces: dict[str, np.ndarray]) -> dict[str, CellBlock]:
-    """The VTK cell blocks: membrane links and clusters with their tensions, the frame with its
-    axial forces and moments, the membrane surface."""
+    """The VTK cell blocks: those of the element types that draw any (membrane links and
+    clusters with their tensions, the frame with its axial forces and moments) and the membrane
+    surface."""
     # offsets and ghosts are drawn at the frame node they belong to
     real = np.arange(P.n_total)
     real[P.n : P.n + P.off_geo.shape[0]] = P.off_geo[:, 1]
     blocks: dict[str, CellBlock] = {}
-    mem = ~P.link_frame
-    if mem.any():
-        blocks["membrane_links"] = CellBlock("line", real[P.link_ij[mem]], {"tension_N": forces["link_tension"][mem]})
-    if P.clu_seg.size:
-        blocks["membrane_clusters"] = CellBlock(
-            "line",
-            real[P.clu_seg],
-            {"tension_N": forces["cluster_tension"][P.clu_seg_cluster], "cluster_id": P.clu_seg_cluster.astype(float)},
-        )
-    if P.link_frame.any():
-        seg = real[P.link_ij[P.link_frame]]
-        blocks["frame"] = CellBlock(
-            "line",
-            seg,
-            {
-                "axial_force_N": forces["link_tension"][P.link_frame],
-                "bending_moment_Nmm": forces["node_moment"][seg].mean(axis=1),
-            },
-        )
+    for e in ELEMENTS:
+        if hasattr(e, "cells"):
+            blocks.update(e.cells(P, real, forces))
     if model.triangles is not None:
         blocks["membrane_surface"] = CellBlock("triangle", model.triangles)
     return blocks
