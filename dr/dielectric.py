@@ -19,9 +19,9 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
+from .blocks import gershgorin
 from .errors import DRError
 from .triangles import shape_gradients
-from .blocks import gershgorin
 from .vec import add_to, cross, dot, get, sub
 
 AREA, COEFF = range(2)

@@ -26,7 +26,6 @@ from typing import NamedTuple
 
 import numpy as np
 from numba import njit
-from numba.extending import overload
 
 from .blocks import add_reflected
 from .frames import Z0, gather, node_frame, node_frame_vjp, scatter
@@ -124,13 +123,15 @@ def pull_back_virtual(X, G, P):
 # ----------------------------------------------------------------------------- all elements
 # Compiled code cannot loop over modules. Each of these three is written out, once per process,
 # as a straight run of calls, one per element type in the order of ELEMENTS and each only when
-# the model has that element (its first array has rows), and compiled into the caller (inlined):
-# the same code as calls written by hand, so adding an element type costs a step nothing.
+# the model has that element (its first array has rows), and inlined into the kernel that calls
+# it before typing: the same code as calls written by hand, compiled once, so adding an element
+# type costs a step nothing. (An inlined overload would also compile each run on its own,
+# element functions inlined in it: 10 s more on a cold cache.)
 
 
 def _in_turn(function: str, arguments: str, *, start: str, each: str, result: str):
-    """A Python function of (X, P, ``arguments``) that calls ``function`` of each element
-    module the model has, each call's value put into the statement ``each`` (``{}``)."""
+    """A compiled, always inlined function of (X, P, ``arguments``) that calls ``function`` of
+    each element module the model has, each call's value put into the statement ``each`` (``{}``)."""
     namespace = {}
     lines = [f"def in_turn(X, P{arguments}):", f"    {start}"]
     for k, element in enumerate(ELEMENTS):
@@ -139,39 +140,19 @@ def _in_turn(function: str, arguments: str, *, start: str, each: str, result: st
                   "        " + each.format(f"element_{k}(X, P{arguments})")]
     lines.append(f"    return {result}")
     exec("\n".join(lines), namespace)
-    return namespace["in_turn"]
+    return njit(error_model="numpy", inline="always")(namespace["in_turn"])
 
 
-def all_gradients(X, P, G, D):
-    """Each element type's ``gradient`` in turn; the largest element force (N). Compiled code only."""
-    raise NotImplementedError
+all_gradients = _in_turn("gradient", ", G, D", start="fmax = 0.0", each="fmax = max(fmax, {})", result="fmax")
+"""Each element type's ``gradient`` in turn; the largest element force (N)."""
 
+all_strain_energies = _in_turn("strain_energy", "", start="e_mem = e_bend = e_twist = e_ax = 0.0",
+                               each="m, b, t, a = {}; e_mem += m; e_bend += b; e_twist += t; e_ax += a",
+                               result="e_mem, e_bend, e_twist, e_ax")
+"""The sums of each element type's ``strain_energy`` (membrane, frame bending, torsion, axial), N mm."""
 
-def all_strain_energies(X, P):
-    """The sum of each element type's ``strain_energy``. Compiled code only."""
-    raise NotImplementedError
-
-
-def all_stiffnesses(X, P, S, with_links):
-    """Each element type's ``stiffness`` in turn. Compiled code only."""
-    raise NotImplementedError
-
-
-@overload(all_gradients, inline="always")
-def _all_gradients(X, P, G, D):
-    return _in_turn("gradient", ", G, D", start="fmax = 0.0", each="fmax = max(fmax, {})", result="fmax")
-
-
-@overload(all_strain_energies, inline="always")
-def _all_strain_energies(X, P):
-    return _in_turn("strain_energy", "", start="e_mem = e_bend = e_twist = e_ax = 0.0",
-                    each="m, b, t, a = {}; e_mem += m; e_bend += b; e_twist += t; e_ax += a",
-                    result="e_mem, e_bend, e_twist, e_ax")
-
-
-@overload(all_stiffnesses, inline="always")
-def _all_stiffnesses(X, P, S, with_links):
-    return _in_turn("stiffness", ", S, with_links", start="pass", each="{}", result="None")
+all_stiffnesses = _in_turn("stiffness", ", S, with_links", start="pass", each="{}", result="None")
+"""Each element type's ``stiffness`` in turn."""
 
 
 @njit(cache=True, error_model="numpy")

@@ -25,9 +25,9 @@ from typing import NamedTuple, Sequence
 import numpy as np
 from numba import njit
 
+from .blocks import add_rotated, frame_blocks, gershgorin
 from .checks import positive
 from .errors import DRError
-from .blocks import add_rotated, frame_blocks, gershgorin
 from .vec import add, add_to, axpy, cross, dot, get, norm, scale, sub, unit_vjp
 
 STRIP, PAPER = 0, 1

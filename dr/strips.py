@@ -14,9 +14,9 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
-from .errors import DRError
 from .beams import beam_triplets
 from .blocks import add_rotated, frame_blocks, gershgorin
+from .errors import DRError
 from .frames import gather, node_frame, node_frame_vjp, scatter
 from .vec import add, add_to, axpy, cross, dot, get, norm, scale, sub, unit_vjp
 

@@ -28,9 +28,9 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
+from .blocks import add_block
 from .checks import positive
 from .errors import DRError
-from .blocks import add_block
 from .vec import add_to, axpy, get, norm, scale
 
 LINEAR, NEO_HOOKEAN, GENT = 0, 1, 2
