@@ -2,11 +2,101 @@
 
 from __future__ import annotations
 
+from typing import NamedTuple, Sequence
+
 import numpy as np
 from numba import njit
 
-from .links import tension
+from results import CellBlock
+
+from .checks import positive
+from .errors import DRError
+from .links import tension, tensions
 from .vec import add_to, get, norm, scale, sub
+
+
+class Fields(NamedTuple):
+    """The clustered cables' arrays in :class:`dr.kernels.Packed`."""
+
+    clu_seg: np.ndarray  # (s, 2) cable segments (node pairs), all clusters
+    clu_ptr: np.ndarray  # (c+1,) into clu_nodes
+    clu_nodes: np.ndarray  # chains, concatenated
+    clu_EA: np.ndarray  # N
+    clu_L0: np.ndarray  # mm, rest length of the whole cable
+    clu_tension_only: np.ndarray  # bool
+    clu_seg_cluster: np.ndarray  # (s,) cluster of each segment
+    clu_work: np.ndarray  # (len(clu_nodes),) scratch: segment lengths of the current step
+
+
+class Methods:
+    """The :class:`dr.Model` method that adds clustered cables."""
+
+    def add_cluster(
+        self,
+        chain: Sequence[int],
+        EA: float,
+        rest_length: float | None = None,
+        tension_only: bool = True,
+    ) -> int:
+        """Add a clustered cable over ``chain`` (frictionless pulleys at the inner nodes).
+
+        One tension for the whole chain: T = EA/L0 (sum l_i - L0). Returns its cluster number.
+        """
+        c = self.node_indices("cluster chain", chain, True)
+        if c.size < 2:
+            raise DRError("a cluster chain needs at least 2 nodes")
+        if np.any(c[1:] == c[:-1]):
+            raise DRError("cluster chain repeats a node in consecutive places")
+        ea = positive("cluster EA (N)", EA)
+        L = float(np.sum(self.rest_lengths("cluster", c[:-1], c[1:], None)))
+        L0 = L if rest_length is None else positive("cluster rest_length (mm)", rest_length)
+        self.stored[Fields].append((c, ea, L0, bool(tension_only)))
+        return len(self.stored[Fields]) - 1
+
+
+def scale_membrane(stored: list, factor: float) -> list:
+    """The cables of ``stored`` with rest lengths times ``factor``."""
+    return [(c, ea, L0 * factor, to) for c, ea, L0, to in stored]
+
+
+
+
+def pack(model, rest) -> Fields:
+    """The clustered cables of ``model`` (:meth:`dr.Model.add_cluster`); ``rest`` is unused."""
+    cl = model.stored[Fields]
+    ptr = np.zeros(len(cl) + 1, dtype=np.int64)
+    ptr[1:] = np.cumsum([c[0].size for c in cl])
+    nodes = np.concatenate([c[0] for c in cl]) if cl else np.zeros(0, np.int64)
+    seg = np.concatenate([np.stack([c[0][:-1], c[0][1:]], axis=1) for c in cl]) if cl else np.zeros((0, 2), np.int64)
+    return Fields(
+        clu_seg=seg.astype(np.int64),
+        clu_ptr=ptr,
+        clu_nodes=nodes.astype(np.int64),
+        clu_EA=np.array([c[1] for c in cl], dtype=float),
+        clu_L0=np.array([c[2] for c in cl], dtype=float),
+        clu_tension_only=np.array([c[3] for c in cl], dtype=bool),
+        clu_seg_cluster=np.repeat(np.arange(len(cl)), [c[0].size - 1 for c in cl]).astype(np.int64),
+        clu_work=np.zeros(nodes.size),
+    )
+
+
+def forces(X: np.ndarray, P, moment: np.ndarray) -> dict[str, np.ndarray]:
+    """The tension of each clustered cable at X, N (``moment`` is left alone)."""
+    return {"cluster_tension": tensions(P.clu_EA, P.clu_L0, lengths(X, P), P.clu_tension_only)}
+
+
+def cells(P, real: np.ndarray, forces: dict[str, np.ndarray]) -> dict[str, CellBlock]:
+    """The VTK line block of the cables' segments, each with its cable's tension (N) and number.
+    ``real`` maps a row of X to the real node it is drawn at."""
+    if not P.clu_seg.size:
+        return {}
+    return {"membrane_clusters": CellBlock("line", real[P.clu_seg], {
+        "tension_N": forces["cluster_tension"][P.clu_seg_cluster], "cluster_id": P.clu_seg_cluster.astype(float)})}
+
+
+def edges(P) -> np.ndarray:
+    """Node pairs (k, 2) of the cables' segments."""
+    return P.clu_seg
 
 
 def lengths(X: np.ndarray, P) -> np.ndarray:
@@ -45,13 +135,14 @@ def gradient(X, P, G, D):
 
 
 @njit(cache=True, error_model="numpy")
-def energy(X, P):
-    """Strain energy of all clusters, N mm."""
+def strain_energy(X, P):
+    """Strain energy (membrane, frame bending, frame torsion, frame axial) of all clusters, N mm:
+    membrane only."""
     e = 0.0
     for c in range(P.clu_ptr.shape[0] - 1):
         t = tension(P.clu_EA[c], P.clu_L0[c], _length(X, P, c), P.clu_tension_only[c])
         e += 0.5 * t * t * P.clu_L0[c] / P.clu_EA[c]
-    return e
+    return e, 0.0, 0.0, 0.0
 
 
 @njit(cache=True, error_model="numpy")

@@ -14,14 +14,81 @@ the stiffness, not its sign, so the absolute row sums bound it.
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 from numba import njit
 
 from .blocks import gershgorin
+from .errors import DRError
+from .triangles import shape_gradients
 from .vec import add_to, cross, dot, get, sub
 
 AREA, COEFF = range(2)
 """Columns of Packed.diel_par: flat area (mm^2) and c (N/mm)."""
+
+
+class Fields(NamedTuple):
+    """The dielectric film's arrays in :class:`dr.kernels.Packed`."""
+
+    diel_idx: np.ndarray  # (d, 3) triangles of the dielectric film
+    diel_par: np.ndarray  # (d, 2) flat area (mm^2), coefficient c (N/mm)
+
+
+class Methods:
+    """The :class:`dr.Model` methods of the dielectric film; ``dielectric_coefficient`` is its
+    c (N/mm), set by :meth:`add_dielectric` and changed with the voltage."""
+
+    dielectric_coefficient = 0.0
+
+    def add_dielectric(self, triangles: np.ndarray, coefficient: float) -> None:
+        """Make the film over node triples ``triangles`` an ideal dielectric (:mod:`dr.dielectric`).
+
+        Its energy is -c a^2 / A per triangle (current area a, flat area A in the reference),
+        c = ``coefficient`` (N/mm, >= 0) from :func:`scenes.electric.dielectric_coefficient`;
+        change the voltage by setting ``dielectric_coefficient``. The reference must be flat.
+        """
+        t = np.asarray(triangles)
+        if t.ndim != 2 or t.shape[1] != 3 or t.shape[0] == 0:
+            raise DRError("dielectric triangles must be a non-empty (t, 3) array of node indices")
+        t = self.node_indices("dielectric triangle nodes", t.ravel()).reshape(-1, 3)
+        c = float(coefficient)
+        if not np.isfinite(c) or c < 0:
+            raise DRError(f"dielectric coefficient = {coefficient!r} must be a number >= 0 (N/mm)")
+        _, area = shape_gradients(self.nodes[t][:, :, :2])
+        if np.any(area <= 1e-12 * np.ptp(self.nodes[:, :2]) ** 2):
+            raise DRError("a dielectric triangle has no area: its three nodes lie on one line")
+        self.stored[Fields][:] = [(t, area)]
+        self.dielectric_coefficient = c
+
+    def dielectric_energy(self, x: np.ndarray) -> tuple[float, float]:
+        """(electrostatic energy N mm, current film area mm^2) at positions x (n, 3); (0, 0)
+        without a dielectric."""
+        if not self.stored[Fields]:
+            return 0.0, 0.0
+        return energies(x, *self.stored[Fields][0], self.dielectric_coefficient)
+
+
+
+
+def pack(model, rest) -> Fields:
+    """The dielectric film of ``model`` (:meth:`dr.Model.add_dielectric`) at its coefficient;
+    ``rest`` is unused. At zero voltage it has no rows: V = 0 is the mechanical model bit for bit."""
+    if not model.stored[Fields] or model.dielectric_coefficient <= 0.0:
+        return Fields(np.zeros((0, 3), np.int64), np.zeros((0, 2)))
+    t, area = model.stored[Fields][0]
+    return Fields(t, np.column_stack([area, np.full(len(area), model.dielectric_coefficient)]))
+
+
+def forces(X: np.ndarray, P, moment: np.ndarray) -> dict[str, np.ndarray]:
+    """Nothing: the dielectric reports no forces (``moment`` is left alone)."""
+    return {}
+
+
+def edges(P) -> np.ndarray:
+    """None: the dielectric's triangles are the membrane's (the drift scale of dr.relax takes
+    their sides there)."""
+    return np.zeros((0, 2), np.int64)
 
 
 @njit(cache=True, error_model="numpy")
@@ -87,8 +154,6 @@ def dielectric_gradient(X, idx, par, G, xl, gl):
 @njit(cache=True, error_model="numpy")
 def gradient(X, P, G, D):
     """Add the dielectric's gradient of every film triangle to G; returns its largest force (N)."""
-    if P.diel_idx.shape[0] == 0:  # no voltage: no scratch arrays in the time loop
-        return 0.0
     xt = np.zeros((3, 3))
     gt = np.zeros((3, 3))
     fmax = 0.0
@@ -115,11 +180,16 @@ def energy(X, P):
 
 
 @njit(cache=True, error_model="numpy")
+def strain_energy(X, P):
+    """Strain energy (membrane, frame bending, frame torsion, frame axial): none. The film's
+    electrostatic energy is no strain energy; :func:`energy` gives it (dr.stability adds it)."""
+    return 0.0, 0.0, 0.0, 0.0
+
+
+@njit(cache=True, error_model="numpy")
 def stiffness(X, P, S, with_links):
     """Add the Gershgorin bound of each triangle's dielectric Hessian (it softens the film: its
     size, not its sign, bounds the time step) to S."""
-    if P.diel_idx.shape[0] == 0:
-        return
     xt = np.zeros((3, 3))
     H = np.zeros((9, 9))
     for k in range(P.diel_idx.shape[0]):

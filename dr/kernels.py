@@ -1,9 +1,9 @@
 """The model's energy, its gradient (forces) and the stiffness bounds behind the masses.
 
-Each element type is its own module with ``gradient``, ``energy`` and ``stiffness`` over its
-arrays in :class:`Packed`: links, clusters (clustered cables), beams (spline beams), strips,
-triangles (membrane) and rod (the FEM's frame rod); the functions here run them in turn and
-handle the virtual nodes.
+Each element type is its own module (the registry dr.elements: links, clusters, beams, strips,
+triangles, rod, dielectric) with ``gradient``, ``strain_energy`` and ``stiffness`` over its
+arrays in :class:`Packed`; the functions here run those the model has in turn and handle the
+virtual nodes.
 
 Everything acts on an extended position array X = [real nodes; virtual nodes]. Virtual nodes
 are positions derived from real ones:
@@ -27,14 +27,17 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
-from . import beams, clusters, dielectric, links, rod, strips, triangles
 from .blocks import add_reflected
 from .frames import Z0, gather, node_frame, node_frame_vjp, scatter
+from .elements import ELEMENTS
 from .vec import add_to, axpy, dot, get, scale, sub
 
 
-class Packed(NamedTuple):
-    """Element arrays of a model, as the kernels take them (see :class:`dr.Model`)."""
+class Virtual(NamedTuple):
+    """The fields of :class:`Packed` that define the virtual nodes. The per-step code passes
+    this small record rather than the whole of ``Packed``: a compiled call increments and
+    decrements the reference count of every array in its record arguments, and the 35 of
+    ``Packed`` cost about 0.5 us per call."""
 
     n: int  # real nodes
     ghost_src: np.ndarray  # (g,) node mirrored
@@ -42,36 +45,16 @@ class Packed(NamedTuple):
     ghost_t: np.ndarray  # (g, 3) unit clamped tangent
     off_geo: np.ndarray  # (o, 5) frame geometry indices of the offset node's frame node
     off_d: np.ndarray  # (o,) signed offset along the strip normal, mm
-    link_ij: np.ndarray  # (l, 2)
-    link_EA: np.ndarray  # N
-    link_L0: np.ndarray  # mm
-    link_tension_only: np.ndarray  # bool
-    link_frame: np.ndarray  # bool: frame axial (True) or membrane (False), for the energy split
-    link_block: np.ndarray  # bool: its stiffness is in the frame mass (dr.frame_mass), not in D
-    clu_ptr: np.ndarray  # (c+1,) into clu_nodes
-    clu_nodes: np.ndarray  # chains, concatenated
-    clu_EA: np.ndarray  # N
-    clu_L0: np.ndarray  # mm, rest length of the whole cable
-    clu_tension_only: np.ndarray  # bool
-    clu_seg: np.ndarray  # (s, 2) cable segments (node pairs), all clusters
-    clu_seg_cluster: np.ndarray  # (s,) cluster of each segment
-    clu_work: np.ndarray  # (len(clu_nodes),) scratch: segment lengths of the current step
-    beam_idx: np.ndarray  # (b, 3) spline-beam triplets s, i, f
-    beam_EI: np.ndarray  # N mm^2
-    beam_k0: np.ndarray  # 1/mm rest curvature
-    beam_w: np.ndarray  # weight (1/2 at a clamp: the other half belongs to the mirrored beam)
-    beam_l: np.ndarray  # mm, rest length attributed to the node
-    strip_idx: np.ndarray  # (k, 5) frame geometry of strip nodes
-    strip_par: np.ndarray  # (k, 9) KB, KT, EIW, EIS, GJ, KW0, KN0, TAU0, LBAR
-    strip_blocks: np.ndarray  # (k, 5, 6) scratch: mass blocks in the material frame
-    tri_idx: np.ndarray  # (t, 3) membrane triangles
-    tri_grad: np.ndarray  # (t, 3, 2) flat shape-function gradients, 1/mm
-    tri_par: np.ndarray  # (t, 6) see dr.triangles (area, E h, lambda, tension-only, law, Gent Jm)
-    rod_idx: np.ndarray  # (r, 7) rod vertex stencils, see dr.rod
-    rod_par: np.ndarray  # (r, dr.rod.N_PAR)
-    rod_blocks: np.ndarray  # (r, 7, 6) scratch: mass blocks in the vertex's material frame
-    diel_idx: np.ndarray  # (d, 3) triangles of the dielectric film, see dr.dielectric
-    diel_par: np.ndarray  # (d, 2) flat area (mm^2), coefficient c (N/mm)
+
+
+class Packed(NamedTuple("PackedFields", [*Virtual.__annotations__.items(),
+                                         *((f, t) for e in ELEMENTS for f, t in e.Fields.__annotations__.items())])):
+    """Arrays of a model, as the kernels take them (see :class:`dr.Model`): the fields of
+    :class:`Virtual`, then each element type's ``Fields`` in the order of dr.elements. A type
+    the model lacks has arrays with no rows; every model has this one record type, so the
+    kernels are compiled once for all."""
+
+    __slots__ = ()
 
     @property
     def n_total(self) -> int:
@@ -80,20 +63,6 @@ class Packed(NamedTuple):
 
 
 # ----------------------------------------------------------------------------- virtual nodes
-
-
-class Virtual(NamedTuple):
-    """The fields of :class:`Packed` that define the virtual nodes. The per-step code passes
-    this small record rather than the whole of ``Packed``: a compiled call increments and
-    decrements the reference count of every array in its record arguments, and the 37 of
-    ``Packed`` cost about 0.5 us per call."""
-
-    n: int
-    ghost_src: np.ndarray
-    ghost_clamp: np.ndarray
-    ghost_t: np.ndarray
-    off_geo: np.ndarray
-    off_d: np.ndarray
 
 
 @njit(cache=True, error_model="numpy", inline="always")
@@ -152,6 +121,38 @@ def pull_back_virtual(X, G, P):
 
 
 # ----------------------------------------------------------------------------- all elements
+# Compiled code cannot loop over modules. Each of these three is written out, once per process,
+# as a straight run of calls, one per element type in the order of ELEMENTS and each only when
+# the model has that element (its first array has rows), and inlined into the kernel that calls
+# it before typing: the same code as calls written by hand, compiled once, so adding an element
+# type costs a step nothing. (An inlined overload would also compile each run on its own,
+# element functions inlined in it: 10 s more on a cold cache.)
+
+
+def _in_turn(function: str, arguments: str, *, start: str, each: str, result: str):
+    """A compiled, always inlined function of (X, P, ``arguments``) that calls ``function`` of
+    each element module the model has, each call's value put into the statement ``each`` (``{}``)."""
+    namespace = {}
+    lines = [f"def in_turn(X, P{arguments}):", f"    {start}"]
+    for k, element in enumerate(ELEMENTS):
+        namespace[f"element_{k}"] = getattr(element, function)
+        lines += [f"    if P.{element.Fields._fields[0]}.shape[0] > 0:",
+                  "        " + each.format(f"element_{k}(X, P{arguments})")]
+    lines.append(f"    return {result}")
+    exec("\n".join(lines), namespace)
+    return njit(error_model="numpy", inline="always")(namespace["in_turn"])
+
+
+all_gradients = _in_turn("gradient", ", G, D", start="fmax = 0.0", each="fmax = max(fmax, {})", result="fmax")
+"""Each element type's ``gradient`` in turn; the largest element force (N)."""
+
+all_strain_energies = _in_turn("strain_energy", "", start="e_mem = e_bend = e_twist = e_ax = 0.0",
+                               each="m, b, t, a = {}; e_mem += m; e_bend += b; e_twist += t; e_ax += a",
+                               result="e_mem, e_bend, e_twist, e_ax")
+"""The sums of each element type's ``strain_energy`` (membrane, frame bending, torsion, axial), N mm."""
+
+all_stiffnesses = _in_turn("stiffness", ", S, with_links", start="pass", each="{}", result="None")
+"""Each element type's ``stiffness`` in turn."""
 
 
 @njit(cache=True, error_model="numpy")
@@ -170,23 +171,7 @@ def gradient(X, P, G, D):
     G[:] = 0.0
     if D.shape[0] > 0:
         D[:] = 0.0
-    # each element type is called only when the model has it: a call costs its record's
-    # reference counting even when it returns at once (see dr.integrator.run)
-    fmax = 0.0
-    if P.link_ij.shape[0] > 0:
-        fmax = max(fmax, links.gradient(X, P, G, D))
-    if P.clu_seg.shape[0] > 0:
-        fmax = max(fmax, clusters.gradient(X, P, G, D))
-    if P.beam_idx.shape[0] > 0:
-        fmax = max(fmax, beams.gradient(X, P, G, D))
-    if P.strip_idx.shape[0] > 0:
-        fmax = max(fmax, strips.gradient(X, P, G, D))
-    if P.tri_idx.shape[0] > 0:
-        fmax = max(fmax, triangles.gradient(X, P, G, D))
-    if P.rod_idx.shape[0] > 0:
-        fmax = max(fmax, rod.gradient(X, P, G, D))
-    if P.diel_idx.shape[0] > 0:
-        fmax = max(fmax, dielectric.gradient(X, P, G, D))
+    fmax = all_gradients(X, P, G, D)
     if has_virtual:
         pull_back_virtual(X, G, vp)
         if D.shape[0] > 0:
@@ -198,11 +183,7 @@ def gradient(X, P, G, D):
 def energy(X, P):
     """Strain energy split (membrane, frame bending, frame torsion, frame axial), N mm."""
     place_virtual(X, P)
-    e_mem, e_ax = links.energy(X, P)
-    e_mem += clusters.energy(X, P) + triangles.energy(X, P)
-    e_bend, e_twist = strips.energy(X, P)
-    rb, rt = rod.energy(X, P)
-    return e_mem, e_bend + rb + beams.energy(X, P), e_twist + rt, e_ax
+    return all_strain_energies(X, P)
 
 
 @njit(cache=True, error_model="numpy")
@@ -217,21 +198,7 @@ def stiffness(X, P, S, with_links):
     if X.shape[0] > P.n:
         place_virtual(X, virtual(P))
     S[:] = 0.0
-    # called only for the element types the model has, as in gradient
-    if P.link_ij.shape[0] > 0:
-        links.stiffness(X, P, S, with_links)
-    if P.clu_seg.shape[0] > 0:
-        clusters.stiffness(X, P, S, with_links)
-    if P.beam_idx.shape[0] > 0:
-        beams.stiffness(X, P, S, with_links)
-    if P.strip_idx.shape[0] > 0:
-        strips.stiffness(X, P, S, with_links)
-    if P.tri_idx.shape[0] > 0:
-        triangles.stiffness(X, P, S, with_links)
-    if P.rod_idx.shape[0] > 0:
-        rod.stiffness(X, P, S, with_links)
-    if P.diel_idx.shape[0] > 0:
-        dielectric.stiffness(X, P, S, with_links)
+    all_stiffnesses(X, P, S, with_links)
     n = P.n
     base = n + P.off_geo.shape[0]
     for k in range(P.off_geo.shape[0]):

@@ -2,11 +2,108 @@
 
 from __future__ import annotations
 
+from typing import NamedTuple, Sequence
+
 import numpy as np
 from numba import njit
 
+from results import CellBlock
+
 from .blocks import add_block
+from .errors import DRError
 from .vec import add_to, get, norm, scale, sub
+
+
+class Fields(NamedTuple):
+    """The links' arrays in :class:`dr.kernels.Packed`."""
+
+    link_ij: np.ndarray  # (l, 2)
+    link_EA: np.ndarray  # N
+    link_L0: np.ndarray  # mm
+    link_tension_only: np.ndarray  # bool
+    link_frame: np.ndarray  # bool: frame axial (True) or membrane (False), for the energy split
+    link_block: np.ndarray  # bool: its stiffness is in the frame mass (dr.frame_mass), not in D
+
+
+class Methods:
+    """The :class:`dr.Model` method that adds links."""
+
+    def add_link(
+        self,
+        i: int | Sequence[int],
+        j: int | Sequence[int],
+        EA: float | Sequence[float],
+        rest_length: float | Sequence[float] | None = None,
+        tension_only: bool = False,
+        role: str = "membrane",
+    ) -> None:
+        """Add links (bars or cables) between nodes i and j: T = EA/L0 (L - L0).
+
+        ``role`` ('membrane' or 'frame') decides where their energy is counted.
+        """
+        ii = self.node_indices("link i", np.atleast_1d(i), True)
+        jj = self.node_indices("link j", np.atleast_1d(j), True)
+        if ii.shape != jj.shape:
+            raise DRError("link i and j must have the same length")
+        if np.any(ii == jj):
+            raise DRError("a link joins a node to itself; give two different nodes")
+        ea = np.broadcast_to(np.asarray(EA, dtype=float), ii.shape).copy()
+        if np.any(~np.isfinite(ea)) or np.any(ea <= 0):
+            raise DRError("link EA must be positive (N)")
+        if role not in ("membrane", "frame"):
+            raise DRError(f"link role = {role!r}: use 'membrane' or 'frame'")
+        L0 = self.rest_lengths("link", ii, jj, rest_length)
+        self.stored[Fields].append((ii, jj, ea, L0, np.full(ii.shape, tension_only), np.full(ii.shape, role == "frame")))
+
+
+def scale_membrane(stored: list, factor: float) -> list:
+    """The membrane links of ``stored`` with rest lengths times ``factor``; frame links as they are."""
+    return [(i, j, ea, np.where(frame, L0, L0 * factor), to, frame) for i, j, ea, L0, to, frame in stored]
+
+
+
+
+def pack(model, rest) -> Fields:
+    """The links of ``model`` (:meth:`dr.Model.add_link`); ``rest`` is unused."""
+    if model.stored[Fields]:
+        li, lj, lea, ll0, lto, lfr = (np.concatenate(a) for a in zip(*model.stored[Fields]))
+    else:
+        li = lj = np.zeros(0, np.int64)
+        lea = ll0 = np.zeros(0)
+        lto = lfr = np.zeros(0, bool)
+    return Fields(
+        link_ij=np.stack([li, lj], axis=1).astype(np.int64).reshape(-1, 2),
+        link_EA=lea.astype(float),
+        link_L0=ll0.astype(float),
+        link_tension_only=lto.astype(bool),
+        link_frame=lfr.astype(bool),
+        link_block=np.zeros(lfr.size, bool),
+    )
+
+
+def forces(X: np.ndarray, P, moment: np.ndarray) -> dict[str, np.ndarray]:
+    """The tension of each link at X, N (``moment`` is left alone)."""
+    return {"link_tension": tensions(P.link_EA, P.link_L0, lengths(X, P), P.link_tension_only)}
+
+
+def cells(P, real: np.ndarray, forces: dict[str, np.ndarray]) -> dict[str, CellBlock]:
+    """VTK line blocks: the membrane links with their tensions (N), the frame links with their
+    axial forces (N) and the mean of their end nodes' ``node_moment`` (N mm). ``real`` maps a
+    row of X to the real node it is drawn at."""
+    blocks = {}
+    mem = ~P.link_frame
+    if mem.any():
+        blocks["membrane_links"] = CellBlock("line", real[P.link_ij[mem]], {"tension_N": forces["link_tension"][mem]})
+    if P.link_frame.any():
+        seg = real[P.link_ij[P.link_frame]]
+        blocks["frame"] = CellBlock("line", seg, {"axial_force_N": forces["link_tension"][P.link_frame],
+                                                  "bending_moment_Nmm": forces["node_moment"][seg].mean(axis=1)})
+    return blocks
+
+
+def edges(P) -> np.ndarray:
+    """Node pairs (k, 2) the links join."""
+    return P.link_ij
 
 
 @njit(cache=True, error_model="numpy")
@@ -58,8 +155,9 @@ def gradient(X, P, G, D):
 
 
 @njit(cache=True, error_model="numpy")
-def energy(X, P):
-    """Strain energy (membrane links, frame links), N mm: N eps L0 / 2 each."""
+def strain_energy(X, P):
+    """Strain energy (membrane, frame bending, frame torsion, frame axial), N mm: N eps L0 / 2
+    of each link, as membrane or frame axial by its role."""
     e_mem = e_frame = 0.0
     for k in range(P.link_ij.shape[0]):
         L = norm(sub(get(X, P.link_ij[k, 1]), get(X, P.link_ij[k, 0])))
@@ -69,7 +167,7 @@ def energy(X, P):
             e_frame += e
         else:
             e_mem += e
-    return e_mem, e_frame
+    return e_mem, 0.0, 0.0, e_frame
 
 
 @njit(cache=True, error_model="numpy")

@@ -22,58 +22,34 @@ relaxation can be a different geometry (``relax(m, x_start=...)``).
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-from typing import Iterable, Sequence
+from typing import Iterable, NamedTuple, Sequence
 
 import numpy as np
 
+from . import beams as beam_element
+from .beams import Beam
+from .checks import positive, unit
 from .errors import DRError
-from . import rod as rod_element
-from . import dielectric as diel_element
-from . import triangles as tri_element
-from .beams import curvatures
+from .elements import ELEMENTS
 from .frames import node_frame
-from .kernels import Packed, place_virtual
-from .strips import EIS, EIW, GJ, KB, KN0, KT, KW0, LBAR, TAU0, strip_measures
+from .kernels import Packed, Virtual, place_virtual
 
 
-def _positive(name: str, value: float) -> float:
-    v = float(value)
-    if not np.isfinite(v) or v <= 0:
-        raise DRError(f"{name} = {value!r} must be a positive number")
-    return v
+class Rest(NamedTuple):
+    """What an element's ``pack`` may need besides the model: the rest positions X (n_total, 3)
+    mm, virtual nodes placed (clamp ghosts about the clamps' rest tangents), and the row of
+    each clamp ghost by (beam number, end 0 or -1)."""
+
+    X: np.ndarray
+    ghost_id: dict
 
 
-def _unit(name: str, v: Sequence[float]) -> np.ndarray:
-    a = np.asarray(v, dtype=float).reshape(-1)
-    if a.shape != (3,) or not np.all(np.isfinite(a)) or np.linalg.norm(a) == 0:
-        raise DRError(f"{name} must be a non-zero 3-vector")
-    return a / np.linalg.norm(a)
-
-
-@dataclass
-class _Rod:
-    chain: np.ndarray
-    bond: np.ndarray | None
-    EI: float
-    EI_strong: float | None
-    GJ: float | None
-    closed: bool
-
-
-@dataclass
-class _Beam:
-    chain: np.ndarray
-    EI: float
-    EA: float | None
-    EI_strong: float | None
-    GJ: float | None
-    orientation: np.ndarray | None
-    closed: bool
-
-
-class Model:
+class Model(*(e.Methods for e in ELEMENTS if hasattr(e, "Methods"))):
     """A DR model built node by node (see the module docstring for an example).
+
+    Supports, clamps, loads and offset nodes are its own; the methods that add elements
+    (``add_link``, ``add_cluster``, ``add_beam``, ``add_triangles``, ``add_dielectric``,
+    ``add_rod``) are each element module's ``Methods`` (:mod:`dr.elements`).
 
     Parameters
     ----------
@@ -91,19 +67,19 @@ class Model:
         self.nodes = x
         self.fixed = np.zeros(x.shape, dtype=bool)
         self.loads = np.zeros(x.shape)
-        self._links: list[tuple[np.ndarray, ...]] = []
-        self._clusters: list[tuple[np.ndarray, float, float, bool]] = []
-        self._beams: list[_Beam] = []
-        self._clamps: dict[int, tuple[np.ndarray, bool, np.ndarray]] = {}
+        # what each element type's add method was given, by its Fields (read by its pack)
+        self.stored: dict[type, list] = {e.Fields: [] for e in ELEMENTS}
+        self.clamps: dict[int, tuple[np.ndarray, bool, np.ndarray]] = {}  # tangent, taped, rest tangent
         self._offsets: list[tuple[int, float]] = []
         self._offset_ref: list[np.ndarray] = []  # their reference positions, mm
-        self._triangles: list[tuple[np.ndarray, float, float, float, bool, int, float]] = []
-        self._rods: list[_Rod] = []
-        self._dielectric: tuple[np.ndarray, np.ndarray] | None = None  # triangles, flat areas
-        self.dielectric_coefficient = 0.0  # c (N/mm), see add_dielectric
         self.triangles: np.ndarray | None = None  # optional surface for VTK output
 
     # ------------------------------------------------------------------ helpers
+    @property
+    def beams(self) -> list[Beam]:
+        """The beams added so far (:meth:`add_beam`), in order."""
+        return self.stored[beam_element.Fields]
+
     @property
     def n(self) -> int:
         """Number of real nodes."""
@@ -114,7 +90,9 @@ class Model:
         """Number of virtual nodes made so far (offsets)."""
         return len(self._offsets)
 
-    def _index(self, name: str, i: int, allow_virtual: bool = False) -> int:
+    def node_index(self, name: str, i: int, allow_virtual: bool = False) -> int:
+        """``i`` as a node index (virtual nodes too if ``allow_virtual``); DRError naming the
+        argument ``name`` otherwise."""
         limit = self.n + (self.n_virtual if allow_virtual else 0)
         try:
             k = int(i)
@@ -124,7 +102,8 @@ class Model:
             raise DRError(f"{name} = {k} is not a node of this model (0 .. {limit - 1})")
         return k
 
-    def _indices(self, name: str, idx: Iterable[int], allow_virtual: bool = False) -> np.ndarray:
+    def node_indices(self, name: str, idx: Iterable[int], allow_virtual: bool = False) -> np.ndarray:
+        """``idx`` as a non-empty int64 array of node indices, as :meth:`node_index`."""
         arr = np.atleast_1d(np.asarray(list(idx) if not isinstance(idx, np.ndarray) else idx))
         if arr.size == 0:
             raise DRError(f"{name} is empty")
@@ -139,7 +118,7 @@ class Model:
     # ------------------------------------------------------------------ supports and loads
     def support(self, indices: int | Iterable[int], axes: str = "xyz") -> None:
         """Fix the given coordinates ('xyz' pins) of the nodes ``indices``."""
-        idx = self._indices("support indices", np.atleast_1d(indices))
+        idx = self.node_indices("support indices", np.atleast_1d(indices))
         if not axes or set(axes) - set("xyz"):
             raise DRError(f"support axes = {axes!r}: use a combination of 'x', 'y', 'z'")
         for a in axes:
@@ -161,23 +140,25 @@ class Model:
         end by a prescribed angle. ``taped`` also holds a strip's normal at +z there (the strip
         is taped flat), which a strip beam needs at a clamped end.
         """
-        k = self._index("clamp node", i)
-        t = _unit("clamp tangent", tangent)
-        rest = t if rest_tangent is None else _unit("clamp rest_tangent", rest_tangent)
-        self._clamps[k] = (t, bool(taped), rest)
+        k = self.node_index("clamp node", i)
+        t = unit("clamp tangent", tangent)
+        rest = t if rest_tangent is None else unit("clamp rest_tangent", rest_tangent)
+        self.clamps[k] = (t, bool(taped), rest)
         self.fixed[k] = True
 
     def add_load(self, i: int, force: Sequence[float]) -> None:
         """Add a nodal force (fx, fy, fz) in N to node ``i``."""
-        k = self._index("load node", i)
+        k = self.node_index("load node", i)
         f = np.asarray(force, dtype=float).reshape(-1)
         if f.shape != (3,) or not np.all(np.isfinite(f)):
             raise DRError("load force must be a finite 3-vector (N)")
         self.loads[k] += f
 
     # ------------------------------------------------------------------ elements
-    def _rest_lengths(self, name: str, i: np.ndarray, j: np.ndarray, rest: object) -> np.ndarray:
-        x = self._ref_positions()
+    def rest_lengths(self, name: str, i: np.ndarray, j: np.ndarray, rest: object) -> np.ndarray:
+        """Rest lengths (mm) of elements between nodes i and j: ``rest`` (a number or one per
+        element) or, if None, their reference distances; DRError naming ``name`` for one <= 0."""
+        x = self.ref_positions()
         L = np.linalg.norm(x[j] - x[i], axis=1)
         if rest is None:
             L0 = L
@@ -193,255 +174,17 @@ class Model:
             )
         return L0
 
-    def _ref_positions(self) -> np.ndarray:
+    def ref_positions(self) -> np.ndarray:
         """Reference positions of real and virtual (offset) nodes."""
         return np.vstack([self.nodes, *self._offset_ref])
-
-    def add_link(
-        self,
-        i: int | Sequence[int],
-        j: int | Sequence[int],
-        EA: float | Sequence[float],
-        rest_length: float | Sequence[float] | None = None,
-        tension_only: bool = False,
-        role: str = "membrane",
-    ) -> None:
-        """Add links (bars or cables) between nodes i and j: T = EA/L0 (L - L0).
-
-        ``role`` ('membrane' or 'frame') decides where their energy is counted.
-        """
-        ii = self._indices("link i", np.atleast_1d(i), True)
-        jj = self._indices("link j", np.atleast_1d(j), True)
-        if ii.shape != jj.shape:
-            raise DRError("link i and j must have the same length")
-        if np.any(ii == jj):
-            raise DRError("a link joins a node to itself; give two different nodes")
-        ea = np.broadcast_to(np.asarray(EA, dtype=float), ii.shape).copy()
-        if np.any(~np.isfinite(ea)) or np.any(ea <= 0):
-            raise DRError("link EA must be positive (N)")
-        if role not in ("membrane", "frame"):
-            raise DRError(f"link role = {role!r}: use 'membrane' or 'frame'")
-        L0 = self._rest_lengths("link", ii, jj, rest_length)
-        self._links.append((ii, jj, ea, L0, np.full(ii.shape, tension_only), np.full(ii.shape, role == "frame")))
-
-    def add_cluster(
-        self,
-        chain: Sequence[int],
-        EA: float,
-        rest_length: float | None = None,
-        tension_only: bool = True,
-    ) -> int:
-        """Add a clustered cable over ``chain`` (frictionless pulleys at the inner nodes).
-
-        One tension for the whole chain: T = EA/L0 (sum l_i - L0). Returns its cluster number.
-        """
-        c = self._indices("cluster chain", chain, True)
-        if c.size < 2:
-            raise DRError("a cluster chain needs at least 2 nodes")
-        if np.any(c[1:] == c[:-1]):
-            raise DRError("cluster chain repeats a node in consecutive places")
-        ea = _positive("cluster EA (N)", EA)
-        L = float(np.sum(self._rest_lengths("cluster", c[:-1], c[1:], None)))
-        L0 = L if rest_length is None else _positive("cluster rest_length (mm)", rest_length)
-        self._clusters.append((c, ea, L0, bool(tension_only)))
-        return len(self._clusters) - 1
-
-    def add_beam(
-        self,
-        chain: Sequence[int],
-        EI: float,
-        EA: float | None = None,
-        *,
-        EI_strong: float | None = None,
-        GJ: float | None = None,
-        orientation: Sequence[int] | None = None,
-        closed: bool = False,
-    ) -> None:
-        """Add a beam along ``chain``; its rest shape is the reference geometry.
-
-        Without ``EI_strong`` it is the isotropic spline beam (Adriaenssens & Barnes):
-        M = EI (|kappa| - kappa_0) per node triplet. Having no material frame it cannot tell
-        which way its rest curvature points, so where it is naturally curved a tilt of the
-        curvature plane costs nothing at first order (energy ~ tilt^4): give ``EI_strong``
-        (= EI for an isotropic section), ``GJ`` and ``orientation`` for a rod that can. With ``EI_strong`` and ``GJ`` it is a strip:
-        weak-axis EI, strong-axis EI_strong, torsion GJ, its plane set by ``orientation``
-        (one node per edge, e.g. the membrane node next to the edge); the forces are the exact
-        gradient of one energy, so the orientation nodes get their reactions. ``EA`` adds an
-        axial link per segment (role 'frame'). Units: N mm^2, N.
-        """
-        c = self._indices("beam chain", chain)
-        if c.size < 3 and not closed:
-            raise DRError("a beam chain needs at least 3 nodes")
-        if len(set(c.tolist())) != c.size:
-            raise DRError("beam chain visits a node twice; for a loop give each node once and closed=True")
-        ei = _positive("beam EI (N mm^2)", EI)
-        n_edges = c.size if closed else c.size - 1
-        nxt = np.roll(c, -1)[:n_edges]
-        self._rest_lengths("beam edge", c[:n_edges], nxt, None)
-        ends = (np.roll(c, 1), np.roll(c, -1)) if closed else (c[:-2], c[2:])
-        x = self._ref_positions()
-        folded = np.flatnonzero(np.linalg.norm(x[ends[1]] - x[ends[0]], axis=1) == 0.0)
-        if folded.size:
-            k = folded[0]
-            raise DRError(f"beam chain folds back on itself: nodes {ends[0][k]} and {ends[1][k]} on either side of "
-                          "a node coincide (no curvature is defined there); move them apart")
-        orient = None
-        if orientation is not None:
-            orient = self._indices("beam orientation", orientation, True)
-            if orient.size != n_edges:
-                raise DRError(f"beam orientation needs one node per edge ({n_edges}), got {orient.size}")
-        if EI_strong is not None:
-            if GJ is None or orient is None:
-                raise DRError("a strip beam (EI_strong given) also needs GJ and orientation")
-            _positive("beam EI_strong (N mm^2)", EI_strong)
-            _positive("beam GJ (N mm^2)", GJ)
-        ea = None if EA is None else _positive("beam EA (N)", EA)
-        self._beams.append(_Beam(c, ei, ea, EI_strong, GJ, orient, closed))
-        if ea is not None:
-            self.add_link(c[:n_edges], nxt, ea, role="frame")
-
-    def add_triangles(self, triangles: np.ndarray, *, E: float, thickness: float, prestretch: float,
-                      law: str = "linear", tension_only: bool = True, gent_jm: float = np.inf) -> None:
-        """Add constant-strain membrane triangles (:mod:`dr.triangles`) over node triples.
-
-        The reference triangles lie in the plane z = const of the nodes (the flat film); the
-        rest state is that shrunk by 1 / ``prestretch``. ``law`` is 'linear' (the link-net
-        law, lattice directions at 0, 60, 120 deg from the x axis), 'neo-hookean' or 'gent'
-        (with ``gent_jm``, Gent's Jm > 0). Units: E in MPa, the mounted thickness in mm.
-        """
-        t = np.asarray(triangles)
-        if t.ndim != 2 or t.shape[1] != 3 or t.shape[0] == 0:
-            raise DRError("triangles must be a non-empty (t, 3) array of node indices")
-        t = self._indices("triangle nodes", t.ravel()).reshape(-1, 3)
-        if law not in tri_element.LAWS:
-            raise DRError(f"membrane law = {law!r} is not one of {', '.join(map(repr, tri_element.LAWS))}")
-        flat = self.nodes[t]
-        if np.ptp(flat[:, :, 2]) > 1e-9 * max(np.ptp(self.nodes[:, :2]), 1e-300):
-            raise DRError("membrane triangles need a flat reference: their nodes must share one z (mm)")
-        _, area = tri_element.shape_gradients(flat[:, :, :2])
-        if np.any(area <= 1e-12 * np.ptp(self.nodes[:, :2]) ** 2):
-            raise DRError("a membrane triangle has no area: its three nodes lie on one line")
-        self._triangles.append((t, _positive("membrane E (MPa)", E), _positive("membrane thickness (mm)", thickness),
-                                _positive("pre-stretch", prestretch), bool(tension_only), tri_element.LAWS[law],
-                                _positive("Gent Jm", gent_jm) if law == "gent" else np.inf))
-
-    def add_dielectric(self, triangles: np.ndarray, coefficient: float) -> None:
-        """Make the film over node triples ``triangles`` an ideal dielectric (:mod:`dr.dielectric`).
-
-        Its energy is -c a^2 / A per triangle (current area a, flat area A in the reference),
-        c = ``coefficient`` (N/mm, >= 0) from :func:`scenes.electric.dielectric_coefficient`;
-        change the voltage by setting ``dielectric_coefficient``. The reference must be flat.
-        """
-        t = np.asarray(triangles)
-        if t.ndim != 2 or t.shape[1] != 3 or t.shape[0] == 0:
-            raise DRError("dielectric triangles must be a non-empty (t, 3) array of node indices")
-        t = self._indices("dielectric triangle nodes", t.ravel()).reshape(-1, 3)
-        c = float(coefficient)
-        if not np.isfinite(c) or c < 0:
-            raise DRError(f"dielectric coefficient = {coefficient!r} must be a number >= 0 (N/mm)")
-        _, area = tri_element.shape_gradients(self.nodes[t][:, :, :2])
-        if np.any(area <= 1e-12 * np.ptp(self.nodes[:, :2]) ** 2):
-            raise DRError("a dielectric triangle has no area: its three nodes lie on one line")
-        self._dielectric = (t, area)
-        self.dielectric_coefficient = c
-
-    def dielectric_energy(self, x: np.ndarray) -> tuple[float, float]:
-        """(electrostatic energy N mm, current film area mm^2) at positions x (n, 3); (0, 0)
-        without a dielectric."""
-        if self._dielectric is None:
-            return 0.0, 0.0
-        return diel_element.energies(x, *self._dielectric, self.dielectric_coefficient)
-
-    def add_rod(self, chain: Sequence[int], *, EA: float, EI: float, EI_strong: float | None = None,
-                GJ: float | None = None, bond: Sequence[int] | None = None, closed: bool = False) -> None:
-        """Add the discrete rod with bond points (:mod:`dr.rod`, the FEM reference's frame).
-
-        With ``EI_strong`` and ``GJ`` it is the strip (weak-axis EI, strong-axis, torsion; its
-        plane set by ``bond``, one bond node per chain node); otherwise the isotropic rod.
-        Edges whose two ends are supported on all axes keep their flat frame. ``EA`` adds an
-        axial link per edge (role 'frame'). Units: N mm^2, N.
-        """
-        c = self._indices("rod chain", chain)
-        if c.size < 3:
-            raise DRError("a rod chain needs at least 3 nodes")
-        b = None
-        if EI_strong is not None:
-            if GJ is None or bond is None:
-                raise DRError("a strip rod (EI_strong given) also needs GJ and bond nodes")
-            b = self._indices("rod bond", bond)
-            if b.size != c.size:
-                raise DRError(f"rod bond needs one node per chain node ({c.size}), got {b.size}")
-            _positive("rod EI_strong (N mm^2)", EI_strong)
-            _positive("rod GJ (N mm^2)", GJ)
-        self._rods.append(_Rod(c, b, _positive("rod EI (N mm^2)", EI), EI_strong, GJ, bool(closed)))
-        n_edges = c.size if closed else c.size - 1
-        self.add_link(c[:n_edges], np.roll(c, -1)[:n_edges], _positive("rod EA (N)", EA), role="frame")
-
-    def _pack_triangles(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        if not self._triangles:
-            return np.zeros((0, 3), np.int64), np.zeros((0, 3, 2)), np.zeros((0, tri_element.N_PAR))
-        idx, grads, pars = [], [], []
-        for t, E, h, lam, tension_only, law, jm in self._triangles:
-            g, area = tri_element.shape_gradients(self.nodes[t][:, :, :2])
-            par = np.zeros((t.shape[0], tri_element.N_PAR))
-            par[:, tri_element.AREA] = area
-            par[:, tri_element.EH] = E * h
-            par[:, tri_element.LAM] = lam
-            par[:, tri_element.TONLY] = float(tension_only)
-            par[:, tri_element.LAW] = law
-            par[:, tri_element.JM] = jm
-            idx.append(t)
-            grads.append(g)
-            pars.append(par)
-        return np.vstack(idx), np.vstack(grads), np.vstack(pars)
-
-    def _pack_rods(self) -> tuple[np.ndarray, np.ndarray]:
-        R = rod_element
-        if not self._rods:
-            return np.zeros((0, R.ROWS), np.int64), np.zeros((0, R.N_PAR))
-        held = self.fixed.all(axis=1)
-        X = self.nodes
-        idx_all, par_all = [], []
-        for rod in self._rods:
-            c, m = rod.chain, rod.chain.size
-            n_edges = m if rod.closed else m - 1
-            ends = np.column_stack([c[:n_edges], np.roll(c, -1)[:n_edges]])
-            edge_held = held[ends[:, 0]] & held[ends[:, 1]]
-            length = np.linalg.norm(X[ends[:, 1]] - X[ends[:, 0]], axis=1)
-            t0 = (X[ends[:, 1]] - X[ends[:, 0]]) / length[:, None]
-            n0 = np.tile([0.0, 0.0, 1.0], (n_edges, 1))
-            rest = np.concatenate([t0, np.cross(n0, t0), n0], axis=1)  # (E, 9): t, d2, n
-            k = np.arange(m) if rod.closed else np.arange(1, m - 1)
-            a, b = (k - 1) % n_edges, k % n_edges
-            keep = ~(edge_held[a] & edge_held[b])
-            a, b = a[keep], b[keep]
-            rows = R.rod_rows(c, rod.bond, rod.closed)[keep]
-            w = np.where(edge_held, 0.0, length)
-            par = np.zeros((rows.shape[0], R.N_PAR))
-            par[:, R.W] = 1.0 / (w[a] + w[b])  # 1 / (2 l_v)
-            par[:, R.EIW] = rod.EI
-            strip = rod.EI_strong is not None
-            par[:, R.MODEL] = R.STRIP if strip else R.PAPER
-            if strip:
-                par[:, R.EIS], par[:, R.GJ] = rod.EI_strong, rod.GJ
-            par[:, R.HELD_A], par[:, R.HELD_B] = edge_held[a], edge_held[b]
-            par[:, R.FRAME_A:R.FRAME_A + 9] = rest[a]
-            par[:, R.FRAME_B:R.FRAME_B + 9] = rest[b]
-            xl = np.zeros((R.ROWS, 3))
-            for r in range(rows.shape[0]):  # rest curvature of the flat state
-                R.gather(X, rows[r], xl)
-                par[r, R.K0:R.K0 + 3] = R.rod_local(xl, par[r], xl, False)[3]
-            idx_all.append(rows)
-            par_all.append(par)
-        return np.vstack(idx_all), np.vstack(par_all)
 
     def scale_membrane_rest_lengths(self, factor: float) -> None:
         """Multiply the rest lengths of clusters, membrane links and triangles by ``factor``
         (> 0): how a pre-stretch is changed on a built model (lambda_old / lambda_new)."""
-        f = _positive("rest-length factor", factor)
-        self._triangles = [(t, E, h, lam / f, to, law, jm) for t, E, h, lam, to, law, jm in self._triangles]
-        self._clusters = [(c, ea, L0 * f, to) for c, ea, L0, to in self._clusters]
-        self._links = [(i, j, ea, np.where(frame, L0, L0 * f), to, frame) for i, j, ea, L0, to, frame in self._links]
+        f = positive("rest-length factor", factor)
+        for e in ELEMENTS:
+            if hasattr(e, "scale_membrane"):
+                self.stored[e.Fields] = e.scale_membrane(self.stored[e.Fields], f)
 
     def offset_node(self, i: int, distance: float) -> int:
         """A virtual node at ``distance`` mm along the strip normal from frame node ``i``.
@@ -450,12 +193,12 @@ class Model:
         strip). Node i must be an inner node of a beam with an orientation, or a taped clamp.
         Returns the virtual node's index for add_link / add_cluster.
         """
-        k = self._index("offset node", i)
+        k = self.node_index("offset node", i)
         d = float(distance)
         if not np.isfinite(d):
             raise DRError("offset distance must be a finite number (mm)")
         geo = self._frame_geometry(k)
-        xl = np.where(geo[:, None] >= 0, self._ref_positions()[np.maximum(geo, 0)], 0.0)
+        xl = np.where(geo[:, None] >= 0, self.ref_positions()[np.maximum(geo, 0)], 0.0)
         nu = np.array(node_frame(xl, geo[3] < 0, geo[4] < 0)[4])
         self._offsets.append((k, d))
         self._offset_ref.append(self.nodes[k] + d * nu)
@@ -465,18 +208,18 @@ class Model:
     def _ghosts(self) -> list[tuple[int, int, np.ndarray, int]]:
         """(beam number, end (0 or -1), tangent, neighbour) for every clamped beam end."""
         out = []
-        for b, beam in enumerate(self._beams):
+        for b, beam in enumerate(self.beams):
             if beam.closed:
                 continue
             for end, nb in ((0, 1), (-1, -2)):
                 node = int(beam.chain[end])
-                if node in self._clamps:
-                    out.append((b, end, self._clamps[node][0], int(beam.chain[nb])))
+                if node in self.clamps:
+                    out.append((b, end, self.clamps[node][0], int(beam.chain[nb])))
         return out
 
     def _frame_geometry(self, node: int) -> np.ndarray:
         """(prev, node, next, m1, m2) of ``node`` on an oriented beam (ghost ids unresolved: -2)."""
-        for beam in self._beams:
+        for beam in self.beams:
             if beam.orientation is None:
                 continue
             pos = np.flatnonzero(beam.chain == node)
@@ -488,7 +231,7 @@ class Model:
                 return np.array([c[p - 1], node, c[(p + 1) % m], o[p - 1], o[p]])
             if 0 < p < m - 1:
                 return np.array([c[p - 1], node, c[p + 1], o[p - 1], o[p]])
-            if node in self._clamps and self._clamps[node][1]:
+            if node in self.clamps and self.clamps[node][1]:
                 # taped clamp: normal +z; neighbour slots hold a real node, unused for nu = +z
                 nb = c[1] if p == 0 else c[-2]
                 return np.array([nb, node, nb, -1, -1])
@@ -496,121 +239,24 @@ class Model:
         raise DRError(f"node {node} is on no beam with an orientation: give add_beam(..., orientation=...) first")
 
     def pack(self) -> Packed:
-        """The element arrays the compiled kernels take."""
+        """The arrays the compiled kernels take: the virtual nodes', then each element type's
+        (its module's ``pack``, in the order of dr.elements)."""
         n, n_off = self.n, self.n_virtual
         ghosts = self._ghosts()
-        ghost_id = {(b, end): n + n_off + g for g, (b, end, _, _) in enumerate(ghosts)}
-        x = self.nodes
-        beam_rows, strip_rows = [], []
-        for b, beam in enumerate(self._beams):
-            c = beam.chain
-            m = c.size
-            trip = []  # (prev, j, next, weight, edge slots)
-            if beam.closed:
-                for p in range(m):
-                    trip.append((c[p - 1], c[p], c[(p + 1) % m], 1.0, p - 1, p))
-            else:
-                for p in range(1, m - 1):
-                    trip.append((c[p - 1], c[p], c[p + 1], 1.0, p - 1, p))
-                if (b, 0) in ghost_id:
-                    trip.append((ghost_id[(b, 0)], c[0], c[1], 0.5, -1, 0))
-                if (b, -1) in ghost_id:
-                    trip.append((c[-2], c[-1], ghost_id[(b, -1)], 0.5, m - 2, -1))
-            for prev, j, nxt, w, e1, e2 in trip:
-                if beam.EI_strong is None:
-                    beam_rows.append((prev, j, nxt, beam.EI, w))
-                else:
-                    if w < 1.0 and not self._clamps[int(j)][1]:
-                        raise DRError(f"strip beam clamped at node {j} must be taped (clamp(..., taped=True)): its normal needs holding")
-                    o = beam.orientation
-                    m1 = o[e1] if e1 >= 0 else -1
-                    m2 = o[e2] if e2 >= 0 else -1
-                    strip_rows.append((prev, j, nxt, m1, m2, w, beam))
-        # ghosts and offsets
-        g_src = np.array([g[3] for g in ghosts], dtype=np.int64)
-        g_clamp = np.array([int(self._beams[g[0]].chain[g[1]]) for g in ghosts], dtype=np.int64)
-        g_t = np.array([g[2] for g in ghosts], dtype=float).reshape(-1, 3)
-        off_geo = np.array([self._frame_geometry(k) for k, _ in self._offsets], dtype=np.int64).reshape(-1, 5)
-        off_d = np.array([d for _, d in self._offsets], dtype=float)
-        # links
-        if self._links:
-            li, lj, lea, ll0, lto, lfr = (np.concatenate(a) for a in zip(*self._links))
-        else:
-            li = lj = np.zeros(0, np.int64)
-            lea = ll0 = np.zeros(0)
-            lto = lfr = np.zeros(0, bool)
-        # clusters
-        ptr = np.zeros(len(self._clusters) + 1, dtype=np.int64)
-        ptr[1:] = np.cumsum([c[0].size for c in self._clusters])
-        cl_nodes = np.concatenate([c[0] for c in self._clusters]) if self._clusters else np.zeros(0, np.int64)
-        cl_seg = np.concatenate([np.stack([c[0][:-1], c[0][1:]], axis=1) for c in self._clusters]) if self._clusters else np.zeros((0, 2), np.int64)
-        tri_idx, tri_grad, tri_par = self._pack_triangles()
-        # at zero voltage the term is left out: V = 0 is the mechanical model bit for bit
-        diel_on = self._dielectric is not None and self.dielectric_coefficient > 0.0
-        rod_idx, rod_par = self._pack_rods()
-        cl_seg_cluster = np.repeat(np.arange(len(self._clusters)), [c[0].size - 1 for c in self._clusters])
-        P = Packed(
+        virtual = Virtual(
             n=n,
-            ghost_src=g_src,
-            ghost_clamp=g_clamp,
-            ghost_t=g_t,
-            off_geo=off_geo,
-            off_d=off_d,
-            link_ij=np.stack([li, lj], axis=1).astype(np.int64).reshape(-1, 2),
-            link_EA=lea.astype(float),
-            link_L0=ll0.astype(float),
-            link_tension_only=lto.astype(bool),
-            link_frame=lfr.astype(bool),
-            link_block=np.zeros(lfr.size, bool),
-            clu_ptr=ptr,
-            clu_nodes=cl_nodes.astype(np.int64),
-            clu_EA=np.array([c[1] for c in self._clusters], dtype=float),
-            clu_L0=np.array([c[2] for c in self._clusters], dtype=float),
-            clu_tension_only=np.array([c[3] for c in self._clusters], dtype=bool),
-            clu_seg=cl_seg.astype(np.int64),
-            clu_seg_cluster=cl_seg_cluster.astype(np.int64),
-            clu_work=np.zeros(cl_nodes.size),
-            beam_idx=np.array([r[:3] for r in beam_rows], dtype=np.int64).reshape(-1, 3),
-            beam_EI=np.array([r[3] for r in beam_rows], dtype=float),
-            beam_k0=np.zeros(len(beam_rows)),
-            beam_w=np.array([r[4] for r in beam_rows], dtype=float),
-            beam_l=np.zeros(len(beam_rows)),
-            strip_idx=np.array([r[:5] for r in strip_rows], dtype=np.int64).reshape(-1, 5),
-            strip_par=np.zeros((len(strip_rows), 9)),
-            strip_blocks=np.zeros((len(strip_rows), 5, 6)),
-            tri_idx=tri_idx,
-            tri_grad=tri_grad,
-            tri_par=tri_par,
-            rod_idx=rod_idx,
-            rod_par=rod_par,
-            rod_blocks=np.zeros((rod_idx.shape[0], rod_element.ROWS, 6)),
-            diel_idx=self._dielectric[0] if diel_on else np.zeros((0, 3), np.int64),
-            diel_par=(np.column_stack([self._dielectric[1], np.full(len(self._dielectric[1]),
-                      self.dielectric_coefficient)]) if diel_on else np.zeros((0, 2))),
+            ghost_src=np.array([g[3] for g in ghosts], dtype=np.int64),
+            ghost_clamp=np.array([int(self.beams[g[0]].chain[g[1]]) for g in ghosts], dtype=np.int64),
+            ghost_t=np.array([g[2] for g in ghosts], dtype=float).reshape(-1, 3),
+            off_geo=np.array([self._frame_geometry(k) for k, _ in self._offsets], dtype=np.int64).reshape(-1, 5),
+            off_d=np.array([d for _, d in self._offsets], dtype=float),
         )
-        # rest curvatures, lengths and strip rest measures from the reference geometry, with the
-        # clamp ghosts mirrored about the clamps' rest tangents
+        # rest curvatures, lengths and strip rest measures come from the reference geometry, with
+        # the clamp ghosts mirrored about the clamps' rest tangents
         X = np.zeros((n + n_off + len(ghosts), 3))
-        X[:n] = x
-        rest_t = np.array([self._clamps[int(self._beams[g[0]].chain[g[1]])][2] for g in ghosts]).reshape(-1, 3)
-        place_virtual(X, P._replace(ghost_t=rest_t))
-        if beam_rows:
-            s, i, f = P.beam_idx.T
-            P.beam_k0[:] = curvatures(X, P.beam_idx)
-            P.beam_l[:] = 0.5 * (np.linalg.norm(X[i] - X[s], axis=1) + np.linalg.norm(X[f] - X[i], axis=1))
-        if strip_rows:
-            idx = P.strip_idx
-            la = np.linalg.norm(X[idx[:, 1]] - X[idx[:, 0]], axis=1)
-            lb = np.linalg.norm(X[idx[:, 2]] - X[idx[:, 1]], axis=1)
-            w = np.array([r[5] for r in strip_rows])
-            lbar = 0.5 * (la + lb)
-            par = P.strip_par
-            par[:, LBAR] = lbar
-            par[:, KB] = w / lbar
-            # the twist at a taped clamp spans half an edge (clamp to edge midpoint)
-            par[:, KT] = np.where(w < 1.0, 1.0 / (0.5 * lbar), 1.0 / lbar)
-            par[:, EIW] = [r[6].EI for r in strip_rows]
-            par[:, EIS] = [r[6].EI_strong for r in strip_rows]
-            par[:, GJ] = [r[6].GJ for r in strip_rows]
-            par[:, [KW0, KN0, TAU0]] = strip_measures(X, idx)
-        return P
+        X[:n] = self.nodes
+        rest_t = np.array([self.clamps[int(self.beams[g[0]].chain[g[1]])][2] for g in ghosts]).reshape(-1, 3)
+        place_virtual(X, virtual._replace(ghost_t=rest_t))
+        rest = Rest(X=X, ghost_id={(b, end): n + n_off + g for g, (b, end, _, _) in enumerate(ghosts)})
+        parts = [e.pack(self, rest) for e in ELEMENTS]
+        return Packed(*virtual, *(a for part in parts for a in part))

@@ -15,16 +15,13 @@ from results import CellBlock, Result
 from . import integrator as itg
 from .contact import FrameContact
 from .errors import DRError
-from .clusters import lengths as cable_lengths
 from .frame_mass import FrameMass
-from .links import lengths as link_lengths, tensions as link_tensions
 from .masses import Masses, masses_at, unresisted
 from .stability import potential_energy
-from .beams import curvatures
 from .damping import SCHEMES
+from .elements import ELEMENTS
 from .finite import degenerate_elements, where_not_finite
 from .kernels import Packed, energy, place_virtual
-from .strips import EIW, KN0, KW0, LBAR, TAU0, strip_measures
 from .model import Model
 
 Check = Callable[[np.ndarray], "str | None"]
@@ -347,9 +344,7 @@ def _energy_rise(X: np.ndarray, P: Packed, stops: _Stops) -> str | None:
 def _shortest_edge(X: np.ndarray, P: Packed) -> float:
     """The shortest distance between two real nodes that an element joins, mm."""
     n = P.n
-    pairs = [P.link_ij, P.clu_seg, P.beam_idx[:, :2], P.beam_idx[:, 1:], P.tri_idx[:, :2], P.tri_idx[:, 1:],
-             P.tri_idx[:, ::2]]
-    ij = np.concatenate([p.reshape(-1, 2) for p in pairs])
+    ij = np.concatenate([e.edges(P).reshape(-1, 2) for e in ELEMENTS])
     ij = ij[(ij < n).all(axis=1) & (ij >= 0).all(axis=1)]
     if ij.shape[0] == 0:
         return 0.0
@@ -366,22 +361,12 @@ def _force_floor(X: np.ndarray, P: Packed, loads: np.ndarray, tol: float, force_
 
 
 def element_forces(model: Model, P: Packed, X: np.ndarray) -> dict[str, np.ndarray]:
-    """Link and cluster tensions (N) and beam bending moments at nodes (N mm)."""
-    out: dict[str, np.ndarray] = {
-        "link_tension": link_tensions(P.link_EA, P.link_L0, link_lengths(X, P), P.link_tension_only),
-        "cluster_tension": link_tensions(P.clu_EA, P.clu_L0, cable_lengths(X, P), P.clu_tension_only),
-    }
+    """What each element type reports at X (dr.elements: link and cluster tensions N, strip
+    twists ...) and ``node_moment``: the beams' and strips' bending moments at nodes, N mm."""
     moment = np.zeros(P.n)
-    if P.beam_idx.size:
-        b = P.beam_idx[:, 1]
-        kap = curvatures(X, P.beam_idx)
-        np.add.at(moment, b[b < P.n], (P.beam_EI * (kap - P.beam_k0))[b < P.n])
-    if P.strip_idx.size:
-        meas = strip_measures(X, P.strip_idx)
-        m_w = P.strip_par[:, EIW] * (meas[:, 0] - P.strip_par[:, KW0]) / P.strip_par[:, LBAR]
-        np.add.at(moment, P.strip_idx[:, 1], m_w)
-        out["strip_twist"] = meas[:, 2] - P.strip_par[:, TAU0]
-        out["strip_strong_curvature"] = meas[:, 1] - P.strip_par[:, KN0]
+    out: dict[str, np.ndarray] = {}
+    for e in ELEMENTS:
+        out.update(e.forces(X, P, moment))
     out["node_moment"] = moment
     return out
 
@@ -434,31 +419,16 @@ def _with_finite_energy(run: Run, energy: dict[str, float]) -> Run:
 
 
 def _blocks(model: Model, P: Packed, forces: dict[str, np.ndarray]) -> dict[str, CellBlock]:
-    """The VTK cell blocks: membrane links and clusters with their tensions, the frame with its
-    axial forces and moments, the membrane surface."""
+    """The VTK cell blocks: those of the element types that draw any (membrane links and
+    clusters with their tensions, the frame with its axial forces and moments) and the membrane
+    surface."""
     # offsets and ghosts are drawn at the frame node they belong to
     real = np.arange(P.n_total)
     real[P.n : P.n + P.off_geo.shape[0]] = P.off_geo[:, 1]
     blocks: dict[str, CellBlock] = {}
-    mem = ~P.link_frame
-    if mem.any():
-        blocks["membrane_links"] = CellBlock("line", real[P.link_ij[mem]], {"tension_N": forces["link_tension"][mem]})
-    if P.clu_seg.size:
-        blocks["membrane_clusters"] = CellBlock(
-            "line",
-            real[P.clu_seg],
-            {"tension_N": forces["cluster_tension"][P.clu_seg_cluster], "cluster_id": P.clu_seg_cluster.astype(float)},
-        )
-    if P.link_frame.any():
-        seg = real[P.link_ij[P.link_frame]]
-        blocks["frame"] = CellBlock(
-            "line",
-            seg,
-            {
-                "axial_force_N": forces["link_tension"][P.link_frame],
-                "bending_moment_Nmm": forces["node_moment"][seg].mean(axis=1),
-            },
-        )
+    for e in ELEMENTS:
+        if hasattr(e, "cells"):
+            blocks.update(e.cells(P, real, forces))
     if model.triangles is not None:
         blocks["membrane_surface"] = CellBlock("triangle", model.triangles)
     return blocks
@@ -466,8 +436,8 @@ def _blocks(model: Model, P: Packed, forces: dict[str, np.ndarray]) -> dict[str,
 
 def _frame_arc(model: Model) -> tuple[np.ndarray | None, np.ndarray | None]:
     """The first beam chain's nodes and their reference arc lengths (mm); None, None without one."""
-    if not model._beams:
+    if not model.beams:
         return None, None
-    chain = model._beams[0].chain
+    chain = model.beams[0].chain
     seg = np.linalg.norm(np.diff(model.nodes[chain], axis=0), axis=1)
     return chain, np.concatenate([[0.0], np.cumsum(seg)])

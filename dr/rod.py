@@ -19,10 +19,15 @@ the two bond nodes of each edge (-1 where not needed).
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+from typing import NamedTuple, Sequence
+
 import numpy as np
 from numba import njit
 
 from .blocks import add_rotated, frame_blocks, gershgorin
+from .checks import positive
+from .errors import DRError
 from .vec import add, add_to, axpy, cross, dot, get, norm, scale, sub, unit_vjp
 
 STRIP, PAPER = 0, 1
@@ -31,6 +36,110 @@ STRIP, PAPER = 0, 1
 W, GJ, EIW, EIS, K0, MODEL, HELD_A, HELD_B, FRAME_A, FRAME_B = 0, 1, 2, 3, 4, 7, 8, 9, 10, 19
 N_PAR = 28
 ROWS = 7
+
+
+class Fields(NamedTuple):
+    """The rods' arrays in :class:`dr.kernels.Packed`."""
+
+    rod_idx: np.ndarray  # (r, 7) rod vertex stencils, see rod_rows
+    rod_par: np.ndarray  # (r, N_PAR)
+    rod_blocks: np.ndarray  # (r, 7, 6) scratch: mass blocks in the vertex's material frame
+
+
+@dataclass
+class Rod:
+    """A rod as :meth:`dr.Model.add_rod` was given it (bond None: the isotropic rod)."""
+
+    chain: np.ndarray
+    bond: np.ndarray | None
+    EI: float
+    EI_strong: float | None
+    GJ: float | None
+    closed: bool
+
+
+class Methods:
+    """The :class:`dr.Model` method that adds rods."""
+
+    def add_rod(self, chain: Sequence[int], *, EA: float, EI: float, EI_strong: float | None = None,
+                GJ: float | None = None, bond: Sequence[int] | None = None, closed: bool = False) -> None:
+        """Add the discrete rod with bond points (:mod:`dr.rod`, the FEM reference's frame).
+
+        With ``EI_strong`` and ``GJ`` it is the strip (weak-axis EI, strong-axis, torsion; its
+        plane set by ``bond``, one bond node per chain node); otherwise the isotropic rod.
+        Edges whose two ends are supported on all axes keep their flat frame. ``EA`` adds an
+        axial link per edge (role 'frame'). Units: N mm^2, N.
+        """
+        c = self.node_indices("rod chain", chain)
+        if c.size < 3:
+            raise DRError("a rod chain needs at least 3 nodes")
+        b = None
+        if EI_strong is not None:
+            if GJ is None or bond is None:
+                raise DRError("a strip rod (EI_strong given) also needs GJ and bond nodes")
+            b = self.node_indices("rod bond", bond)
+            if b.size != c.size:
+                raise DRError(f"rod bond needs one node per chain node ({c.size}), got {b.size}")
+            positive("rod EI_strong (N mm^2)", EI_strong)
+            positive("rod GJ (N mm^2)", GJ)
+        self.stored[Fields].append(Rod(c, b, positive("rod EI (N mm^2)", EI), EI_strong, GJ, bool(closed)))
+        n_edges = c.size if closed else c.size - 1
+        self.add_link(c[:n_edges], np.roll(c, -1)[:n_edges], positive("rod EA (N)", EA), role="frame")
+
+
+
+
+def pack(model, rest) -> Fields:
+    """The rods of ``model`` (:meth:`dr.Model.add_rod`) with their rest frames and curvatures
+    from the reference nodes; ``rest`` is unused."""
+    if not model.stored[Fields]:
+        return Fields(np.zeros((0, ROWS), np.int64), np.zeros((0, N_PAR)), np.zeros((0, ROWS, 6)))
+    held = model.fixed.all(axis=1)
+    X = model.nodes
+    idx_all, par_all = [], []
+    for rod in model.stored[Fields]:
+        c, m = rod.chain, rod.chain.size
+        n_edges = m if rod.closed else m - 1
+        ends = np.column_stack([c[:n_edges], np.roll(c, -1)[:n_edges]])
+        edge_held = held[ends[:, 0]] & held[ends[:, 1]]
+        length = np.linalg.norm(X[ends[:, 1]] - X[ends[:, 0]], axis=1)
+        t0 = (X[ends[:, 1]] - X[ends[:, 0]]) / length[:, None]
+        n0 = np.tile([0.0, 0.0, 1.0], (n_edges, 1))
+        frames = np.concatenate([t0, np.cross(n0, t0), n0], axis=1)  # (E, 9): t, d2, n
+        k = np.arange(m) if rod.closed else np.arange(1, m - 1)
+        a, b = (k - 1) % n_edges, k % n_edges
+        keep = ~(edge_held[a] & edge_held[b])
+        a, b = a[keep], b[keep]
+        rows = rod_rows(c, rod.bond, rod.closed)[keep]
+        w = np.where(edge_held, 0.0, length)
+        par = np.zeros((rows.shape[0], N_PAR))
+        par[:, W] = 1.0 / (w[a] + w[b])  # 1 / (2 l_v)
+        par[:, EIW] = rod.EI
+        strip = rod.EI_strong is not None
+        par[:, MODEL] = STRIP if strip else PAPER
+        if strip:
+            par[:, EIS], par[:, GJ] = rod.EI_strong, rod.GJ
+        par[:, HELD_A], par[:, HELD_B] = edge_held[a], edge_held[b]
+        par[:, FRAME_A:FRAME_A + 9] = frames[a]
+        par[:, FRAME_B:FRAME_B + 9] = frames[b]
+        xl = np.zeros((ROWS, 3))
+        for r in range(rows.shape[0]):  # rest curvature of the flat state
+            gather(X, rows[r], xl)
+            par[r, K0:K0 + 3] = rod_local(xl, par[r], xl, False)[3]
+        idx_all.append(rows)
+        par_all.append(par)
+    idx = np.vstack(idx_all)
+    return Fields(idx, np.vstack(par_all), np.zeros((idx.shape[0], ROWS, 6)))
+
+
+def forces(X: np.ndarray, P, moment: np.ndarray) -> dict[str, np.ndarray]:
+    """Nothing: the rods report no forces (``moment`` is left alone)."""
+    return {}
+
+
+def edges(P) -> np.ndarray:
+    """None: a rod's edges are its frame links (add_rod's EA), which the drift scale of dr.relax takes."""
+    return np.zeros((0, 2), np.int64)
 
 
 @njit(cache=True, error_model="numpy")
@@ -191,8 +300,6 @@ def _differences(xl, idx, par, H, central):
 def gradient(X, P, G, D):
     """Add all rod vertices' energy gradient to G and, if D has rows, the strip rod's mass
     blocks turned with each vertex's material frame. Returns the largest nodal force, N."""
-    if P.rod_idx.shape[0] == 0:
-        return 0.0  # no scratch arrays for a model without this element
     xl = np.zeros((ROWS, 3))
     gl = np.zeros((ROWS, 3))
     fmax = 0.0
@@ -214,8 +321,9 @@ def gradient(X, P, G, D):
 
 
 @njit(cache=True, error_model="numpy")
-def energy(X, P):
-    """Bending and torsion energy of all rod vertices, N mm."""
+def strain_energy(X, P):
+    """Strain energy (membrane, frame bending, frame torsion, frame axial) of all rod vertices,
+    N mm: bending and torsion."""
     xl = np.zeros((ROWS, 3))
     e_bend = e_twist = 0.0
     for k in range(P.rod_idx.shape[0]):
@@ -223,7 +331,7 @@ def energy(X, P):
         eb, et, _, _ = rod_local(xl, P.rod_par[k], xl, False)
         e_bend += eb
         e_twist += et
-    return e_bend, e_twist
+    return 0.0, e_bend, e_twist, 0.0
 
 
 @njit(cache=True, error_model="numpy")

@@ -9,15 +9,73 @@ sums (scalar masses).
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 from numba import njit
 
+from .beams import beam_triplets
 from .blocks import add_rotated, frame_blocks, gershgorin
+from .errors import DRError
 from .frames import gather, node_frame, node_frame_vjp, scatter
 from .vec import add, add_to, axpy, cross, dot, get, norm, scale, sub, unit_vjp
 
 # columns of Packed.strip_par (LBAR: rest length attributed to the node, mm)
 KB, KT, EIW, EIS, GJ, KW0, KN0, TAU0, LBAR = range(9)
+
+
+class Fields(NamedTuple):
+    """The strips' arrays in :class:`dr.kernels.Packed`."""
+
+    strip_idx: np.ndarray  # (k, 5) frame geometry of strip nodes
+    strip_par: np.ndarray  # (k, 9) KB, KT, EIW, EIS, GJ, KW0, KN0, TAU0, LBAR
+    strip_blocks: np.ndarray  # (k, 5, 6) scratch: mass blocks in the material frame
+
+
+
+def pack(model, rest) -> Fields:
+    """The strip beams of ``model`` (:meth:`dr.Model.add_beam` with ``EI_strong``), their rest
+    measures from the rest positions ``rest.X`` (:class:`dr.model.Rest`). Raises DRError for a
+    strip clamped without tape (its normal needs holding)."""
+    rows = []
+    for prev, j, nxt, w, e1, e2, beam in beam_triplets(model, rest.ghost_id, strip=True):
+        if w < 1.0 and not model.clamps[int(j)][1]:
+            raise DRError(f"strip beam clamped at node {j} must be taped (clamp(..., taped=True)): its normal needs holding")
+        o = beam.orientation
+        rows.append((prev, j, nxt, o[e1] if e1 >= 0 else -1, o[e2] if e2 >= 0 else -1, w, beam))
+    idx = np.array([r[:5] for r in rows], dtype=np.int64).reshape(-1, 5)
+    par = np.zeros((len(rows), 9))
+    if rows:
+        X = rest.X
+        la = np.linalg.norm(X[idx[:, 1]] - X[idx[:, 0]], axis=1)
+        lb = np.linalg.norm(X[idx[:, 2]] - X[idx[:, 1]], axis=1)
+        w = np.array([r[5] for r in rows])
+        lbar = 0.5 * (la + lb)
+        par[:, LBAR] = lbar
+        par[:, KB] = w / lbar
+        # the twist at a taped clamp spans half an edge (clamp to edge midpoint)
+        par[:, KT] = np.where(w < 1.0, 1.0 / (0.5 * lbar), 1.0 / lbar)
+        par[:, EIW] = [r[6].EI for r in rows]
+        par[:, EIS] = [r[6].EI_strong for r in rows]
+        par[:, GJ] = [r[6].GJ for r in rows]
+        par[:, [KW0, KN0, TAU0]] = strip_measures(X, idx)
+    return Fields(strip_idx=idx, strip_par=par, strip_blocks=np.zeros((len(rows), 5, 6)))
+
+
+def forces(X: np.ndarray, P, moment: np.ndarray) -> dict[str, np.ndarray]:
+    """Adds each strip node's weak-axis moment (N mm) to ``moment`` (n,); reports its twist
+    and strong-axis curvature change from rest, 1/mm (none without strips)."""
+    if P.strip_idx.size == 0:
+        return {}
+    meas = strip_measures(X, P.strip_idx)
+    np.add.at(moment, P.strip_idx[:, 1], P.strip_par[:, EIW] * (meas[:, 0] - P.strip_par[:, KW0]) / P.strip_par[:, LBAR])
+    return {"strip_twist": meas[:, 2] - P.strip_par[:, TAU0],
+            "strip_strong_curvature": meas[:, 1] - P.strip_par[:, KN0]}
+
+
+def edges(P) -> np.ndarray:
+    """None: the drift scale of dr.relax counts a strip's edges as its frame links (add_beam's EA)."""
+    return np.zeros((0, 2), np.int64)
 
 
 @njit(cache=True, error_model="numpy")
@@ -143,8 +201,6 @@ def _strip_blocks(xl, fixed1, fixed2, par, H, out):
 def gradient(X, P, G, D):
     """Add the strips' energy gradient to G and, if D has rows, their mass blocks turned with
     each node's current material frame. Returns the largest nodal force, N."""
-    if P.strip_idx.shape[0] == 0:
-        return 0.0  # no scratch arrays for a model without this element
     fmax = 0.0
     xl = np.zeros((5, 3))
     gl = np.zeros((5, 3))
@@ -164,8 +220,9 @@ def gradient(X, P, G, D):
 
 
 @njit(cache=True, error_model="numpy")
-def energy(X, P):
-    """Bending and torsion energy of all strip nodes, N mm."""
+def strain_energy(X, P):
+    """Strain energy (membrane, frame bending, frame torsion, frame axial) of all strip nodes,
+    N mm: bending and torsion."""
     e_bend = e_twist = 0.0
     xl = np.zeros((5, 3))
     gl = np.zeros((5, 3))
@@ -175,7 +232,7 @@ def energy(X, P):
         eb, et, _ = strip_local(xl, idx[3] < 0, idx[4] < 0, P.strip_par[k], gl, False)
         e_bend += eb
         e_twist += et
-    return e_bend, e_twist
+    return 0.0, e_bend, e_twist, 0.0
 
 
 @njit(cache=True, error_model="numpy")

@@ -23,11 +23,14 @@ and Gent triangles get the Gershgorin row sums of their Hessian (central differe
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 import numpy as np
 from numba import njit
 
 from .blocks import add_block
+from .checks import positive
+from .errors import DRError
 from .vec import add_to, axpy, get, norm, scale
 
 LINEAR, NEO_HOOKEAN, GENT = 0, 1, 2
@@ -41,6 +44,81 @@ _C = math.cos(math.pi / 3.0)
 _S = math.sin(math.pi / 3.0)
 DIRECTIONS = np.array([[1.0, 0.0], [_C, _S], [-_C, _S]])
 """The lattice directions m_k (the base side is the x axis), as the FEM's linear law."""
+
+
+class Fields(NamedTuple):
+    """The membrane triangles' arrays in :class:`dr.kernels.Packed`."""
+
+    tri_idx: np.ndarray  # (t, 3) membrane triangles
+    tri_grad: np.ndarray  # (t, 3, 2) flat shape-function gradients, 1/mm
+    tri_par: np.ndarray  # (t, 6) area, E h, lambda, tension-only, law, Gent Jm
+
+
+class Methods:
+    """The :class:`dr.Model` method that adds membrane triangles."""
+
+    def add_triangles(self, triangles: np.ndarray, *, E: float, thickness: float, prestretch: float,
+                      law: str = "linear", tension_only: bool = True, gent_jm: float = np.inf) -> None:
+        """Add constant-strain membrane triangles (:mod:`dr.triangles`) over node triples.
+
+        The reference triangles lie in the plane z = const of the nodes (the flat film); the
+        rest state is that shrunk by 1 / ``prestretch``. ``law`` is 'linear' (the link-net
+        law, lattice directions at 0, 60, 120 deg from the x axis), 'neo-hookean' or 'gent'
+        (with ``gent_jm``, Gent's Jm > 0). Units: E in MPa, the mounted thickness in mm.
+        """
+        t = np.asarray(triangles)
+        if t.ndim != 2 or t.shape[1] != 3 or t.shape[0] == 0:
+            raise DRError("triangles must be a non-empty (t, 3) array of node indices")
+        t = self.node_indices("triangle nodes", t.ravel()).reshape(-1, 3)
+        if law not in LAWS:
+            raise DRError(f"membrane law = {law!r} is not one of {', '.join(map(repr, LAWS))}")
+        flat = self.nodes[t]
+        if np.ptp(flat[:, :, 2]) > 1e-9 * max(np.ptp(self.nodes[:, :2]), 1e-300):
+            raise DRError("membrane triangles need a flat reference: their nodes must share one z (mm)")
+        _, area = shape_gradients(flat[:, :, :2])
+        if np.any(area <= 1e-12 * np.ptp(self.nodes[:, :2]) ** 2):
+            raise DRError("a membrane triangle has no area: its three nodes lie on one line")
+        self.stored[Fields].append((t, positive("membrane E (MPa)", E), positive("membrane thickness (mm)", thickness),
+                                positive("pre-stretch", prestretch), bool(tension_only), LAWS[law],
+                                positive("Gent Jm", gent_jm) if law == "gent" else np.inf))
+
+
+def scale_membrane(stored: list, factor: float) -> list:
+    """The triangles of ``stored`` with rest lengths times ``factor`` (pre-stretch over it)."""
+    return [(t, E, h, lam / factor, to, law, jm) for t, E, h, lam, to, law, jm in stored]
+
+
+
+
+def pack(model, rest) -> Fields:
+    """The membrane triangles of ``model`` (:meth:`dr.Model.add_triangles`) on its flat
+    reference nodes; ``rest`` is unused."""
+    if not model.stored[Fields]:
+        return Fields(np.zeros((0, 3), np.int64), np.zeros((0, 3, 2)), np.zeros((0, N_PAR)))
+    idx, grads, pars = [], [], []
+    for t, E, h, lam, tension_only, law, jm in model.stored[Fields]:
+        g, area = shape_gradients(model.nodes[t][:, :, :2])
+        par = np.zeros((t.shape[0], N_PAR))
+        par[:, AREA] = area
+        par[:, EH] = E * h
+        par[:, LAM] = lam
+        par[:, TONLY] = float(tension_only)
+        par[:, LAW] = law
+        par[:, JM] = jm
+        idx.append(t)
+        grads.append(g)
+        pars.append(par)
+    return Fields(np.vstack(idx), np.vstack(grads), np.vstack(pars))
+
+
+def forces(X: np.ndarray, P, moment: np.ndarray) -> dict[str, np.ndarray]:
+    """Nothing: the triangles report no forces (``moment`` is left alone)."""
+    return {}
+
+
+def edges(P) -> np.ndarray:
+    """Node pairs (k, 2) of the triangles' three sides."""
+    return np.concatenate([P.tri_idx[:, :2], P.tri_idx[:, 1:], P.tri_idx[:, ::2]])
 
 
 def shape_gradients(flat: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -263,6 +341,13 @@ def energy(X, P):
         _gather(X, P.tri_idx[k], xl)
         e += triangle_local(xl, P.tri_grad[k], P.tri_par[k], xl, False)
     return e
+
+
+@njit(cache=True, error_model="numpy")
+def strain_energy(X, P):
+    """Strain energy (membrane, frame bending, frame torsion, frame axial) of all triangles,
+    N mm: membrane only."""
+    return energy(X, P), 0.0, 0.0, 0.0
 
 
 @njit(cache=True, error_model="numpy")

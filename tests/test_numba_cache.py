@@ -16,12 +16,12 @@ ROOT = Path(__file__).resolve().parents[1]
 # one membrane link of EA 1 N, rest length 1 mm, stretched to 2 mm: N = 1 N, N eps L0 / 2 = 0.5 N mm
 SCRIPT = """
 import numpy as np, dr
-from dr.links import energy
+from dr.links import strain_energy
 assert dr.__file__.startswith({root!r}), dr.__file__
 m = dr.Model(np.array([[0.0, 0.0, 0.0], [2.0, 0.0, 0.0]]))
 m.add_link([0], [1], 1.0, rest_length=[1.0])
 P = m.pack()
-print(energy(np.vstack([m.nodes, np.zeros((P.n_total - P.n, 3))]), P)[0])
+print(strain_energy(np.vstack([m.nodes, np.zeros((P.n_total - P.n, 3))]), P)[0])
 """
 
 
@@ -38,7 +38,7 @@ def _energy(copy: Path) -> float:
 def test_an_edited_inlined_function_runs_after_the_edit(tmp_path):
     shutil.copytree(ROOT / "dr", tmp_path / "dr", ignore=shutil.ignore_patterns("__pycache__"))
     assert _energy(tmp_path) == pytest.approx(0.5)
-    assert list((tmp_path / "dr" / "__pycache__").glob("links.energy-*.nbi"))  # it was cached
+    assert list((tmp_path / "dr" / "__pycache__").glob("links.strain_energy-*.nbi"))  # it was cached
     vec = tmp_path / "dr" / "vec.py"
     source = vec.read_text()
     old = "return math.sqrt(a[0] * a[0] + a[1] * a[1] + a[2] * a[2])"
