@@ -94,8 +94,6 @@ class Methods:
             self.add_link(c[:n_edges], nxt, ea, role="frame")
 
 
-
-
 def beam_triplets(model, ghost_id: dict, *, strip: bool) -> Iterator[tuple]:
     """(prev, node, next, weight, edge slot before, edge slot after, beam) of every node triplet
     of the strip beams (``strip``) or the isotropic ones of ``model``, beam by beam.

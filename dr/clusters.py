@@ -59,8 +59,6 @@ def scale_membrane(stored: list, factor: float) -> list:
     return [(c, ea, L0 * factor, to) for c, ea, L0, to in stored]
 
 
-
-
 def pack(model, rest) -> Fields:
     """The clustered cables of ``model`` (:meth:`dr.Model.add_cluster`); ``rest`` is unused."""
     cl = model.stored[Fields]

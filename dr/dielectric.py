@@ -69,8 +69,6 @@ class Methods:
         return energies(x, *self.stored[Fields][0], self.dielectric_coefficient)
 
 
-
-
 def pack(model, rest) -> Fields:
     """The dielectric film of ``model`` (:meth:`dr.Model.add_dielectric`) at its coefficient;
     ``rest`` is unused. At zero voltage it has no rows: V = 0 is the mechanical model bit for bit."""
@@ -199,7 +197,6 @@ def stiffness(X, P, S, with_links):
                 xt[a, c] = X[idx[a], c]
         dielectric_hessian(xt, P.diel_par[k], H)
         gershgorin(H, idx, S)
-
 
 
 def energies(x: np.ndarray, triangles: np.ndarray, flat_area: np.ndarray, coefficient: float

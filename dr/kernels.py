@@ -71,7 +71,6 @@ def virtual(P):
     return Virtual(P.n, P.ghost_src, P.ghost_clamp, P.ghost_t, P.off_geo, P.off_d)
 
 
-
 @njit(cache=True, error_model="numpy")
 def place_virtual(X, P):
     """Positions of the virtual nodes from the real ones: ghosts, then offsets (rows n...).
@@ -117,7 +116,6 @@ def pull_back_virtual(X, G, P):
         gt = 2.0 * dot(g, t)
         add_to(G, P.ghost_src[k], axpy(-gt, t, g), 1.0)
         add_to(G, P.ghost_clamp[k], t, gt)
-
 
 
 # ----------------------------------------------------------------------------- all elements

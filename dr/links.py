@@ -61,8 +61,6 @@ def scale_membrane(stored: list, factor: float) -> list:
     return [(i, j, ea, np.where(frame, L0, L0 * factor), to, frame) for i, j, ea, L0, to, frame in stored]
 
 
-
-
 def pack(model, rest) -> Fields:
     """The links of ``model`` (:meth:`dr.Model.add_link`); ``rest`` is unused."""
     if model.stored[Fields]:

@@ -27,7 +27,6 @@ from typing import Iterable, NamedTuple, Sequence
 import numpy as np
 
 from . import beams as beam_element
-from .beams import Beam
 from .checks import positive, unit
 from .errors import DRError
 from .elements import ELEMENTS
@@ -76,7 +75,7 @@ class Model(*(e.Methods for e in ELEMENTS if hasattr(e, "Methods"))):
 
     # ------------------------------------------------------------------ helpers
     @property
-    def beams(self) -> list[Beam]:
+    def beams(self) -> list[beam_element.Beam]:
         """The beams added so far (:meth:`add_beam`), in order."""
         return self.stored[beam_element.Fields]
 

@@ -87,8 +87,6 @@ class Methods:
         self.add_link(c[:n_edges], np.roll(c, -1)[:n_edges], positive("rod EA (N)", EA), role="frame")
 
 
-
-
 def pack(model, rest) -> Fields:
     """The rods of ``model`` (:meth:`dr.Model.add_rod`) with their rest frames and curvatures
     from the reference nodes; ``rest`` is unused."""

@@ -32,7 +32,6 @@ class Fields(NamedTuple):
     strip_blocks: np.ndarray  # (k, 5, 6) scratch: mass blocks in the material frame
 
 
-
 def pack(model, rest) -> Fields:
     """The strip beams of ``model`` (:meth:`dr.Model.add_beam` with ``EI_strong``), their rest
     measures from the rest positions ``rest.X`` (:class:`dr.model.Rest`). Raises DRError for a

@@ -88,8 +88,6 @@ def scale_membrane(stored: list, factor: float) -> list:
     return [(t, E, h, lam / factor, to, law, jm) for t, E, h, lam, to, law, jm in stored]
 
 
-
-
 def pack(model, rest) -> Fields:
     """The membrane triangles of ``model`` (:meth:`dr.Model.add_triangles`) on its flat
     reference nodes; ``rest`` is unused."""
