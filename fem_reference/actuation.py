@@ -22,6 +22,7 @@ import numpy as np
 
 from results import Result
 from results.metrics import outline_bending_angle
+from results.path import neutral_stiffness
 from scenes import Scene
 from scenes.electric import (FLAT_DEG, check_voltages, dielectric_coefficient, mounted_thickness,
                              path_end)
@@ -29,7 +30,7 @@ from scenes.electric import (FLAT_DEG, check_voltages, dielectric_coefficient, m
 from .model import DemesProblem
 from .newton import NewtonResult, NotFactorizable, newton
 from .solve import SNAP_ITERATIONS, TOLERANCE, Continuation, refinement_level
-from .stability import lowest_free_mode, neutral_tolerance
+from .stability import lowest_free_mode
 from .state import Outcome, StepRecord, make_result
 
 MIN_STEP_V = 0.5
@@ -189,7 +190,7 @@ def voltage_sweep(scene: Scene, voltages: Sequence[float], refinement: int | Non
         return abs(outline_bending_angle(y.reshape(-1, 3)[mesh.frame_nodes], mesh.frame_s, scene.outline)) < FLAT_DEG
 
     path = VoltagePath(problem, pre.y, lambda v: dielectric_coefficient(scene, v),
-                       neutral_tolerance(scene), flat=flat)
+                       neutral_stiffness(scene), flat=flat)
     stop = None if pre.converged else VoltageStop(pre.status, "the pre-stretched state: " + pre.detail)
     records = list(pre.records)
     steps = 0

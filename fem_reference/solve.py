@@ -22,13 +22,14 @@ import numpy as np
 
 from results import Result
 from results.crossing import Crossing, film_crossing
+from results.path import AFTER_EVENT, LOCATE, jumped, largest_move, neutral_stiffness, planar, side_of_mode
 from scenes import Scene, SceneError
 from scenes.scene import integer_at_least, prestretch_list
 
 from .contact import Contact, frame_contact, membrane_fold
 from .model import DemesProblem
 from .newton import NewtonResult, NotFactorizable, factorisation_count, newton, positive_shift, shift_scale
-from .stability import lowest_free_mode, neutral_tolerance
+from .stability import lowest_free_mode
 from .state import Outcome, StepRecord, make_result
 
 FIRST_STEP = 0.01
@@ -54,7 +55,10 @@ class Continuation:
         self.y = problem.reference()
         self.previous: tuple[float, np.ndarray] | None = None
         self.step = FIRST_STEP
-        self.neutral = neutral_tolerance(self.scene)
+        self.side = self.scene.outline.side_length
+        self.flat = problem.initial_guess(lift=False).reshape(-1, 3)
+        self.rate: float | None = None  # largest nodal move per unit pre-stretch on the last step (mm)
+        self.neutral = neutral_stiffness(self.scene)
         self.apex = problem.mesh.frame_nodes[self.scene.outline.nearest_to_apex(problem.mesh.frame_s)]
         self.lift = problem.initial_guess() - problem.initial_guess(lift=False)
         self.snaps: list[tuple[float, float]] = []  # (last state on the branch, state snapped to)
@@ -63,30 +67,41 @@ class Continuation:
         self.band = self.scene.outline.distance(centroids) < self.scene.frame.lever
 
     # ------------------------------------------------------------------ one state
+    def _flat_saddle(self, lam: float) -> bool:
+        """Whether the flat state at ``lam`` is a saddle (Newton from flat, no pushes)."""
+        self.problem.lam = lam
+        nr = newton(self.problem, self.flat.ravel(), tol=TOLERANCE, max_iterations=MAX_NEWTON, saddle=SADDLE,
+                    deadline=self.deadline)
+        self.problem.lam = self.lam
+        if nr.status == "saddle":  # indefinite where the residual is small: past buckling
+            return True
+        if not nr.converged or nr.positive_definite:
+            return False
+        try:
+            return self._lowest(nr.y)[0] < -self.neutral
+        except NotFactorizable:
+            return False
+
     def _lowest(self, y: np.ndarray) -> tuple[float, np.ndarray]:
         return lowest_free_mode(self.problem, y)
 
     def _eigen_push(self, y: np.ndarray, phi_free: np.ndarray) -> np.ndarray | None:
-        """Step from saddle y along the mode, apex up, to where the energy is lower."""
+        """Step from saddle y along the mode, on the lift's side (:func:`results.path.side_of_mode`)
+        first, to where the energy is lower."""
         pb = self.problem
         phi = np.zeros(pb.n_dofs)
         phi[pb.free] = phi_free
         phi /= np.linalg.norm(phi.reshape(-1, 3), axis=1).max()
-        up = phi[3 * self.apex + 2]
-        sign = np.sign(up) * self.up if abs(up) > 1e-6 else np.sign(phi @ self.lift) or 1.0
-        phi *= sign
+        sign = side_of_mode(phi.reshape(-1, 3), apex=self.apex, lift=self.lift.reshape(-1, 3), up=self.up)
         e0 = pb.energy(y)
-        alpha = 0.05 * self.scene.outline.side_length
-        for _ in range(30):
-            trial = y + alpha * phi
-            if pb.energy(trial) < e0 - 1e-12 * abs(e0):
-                return trial
-            alpha *= 0.5
+        for side in (sign, -sign):
+            alpha = 0.05 * self.scene.outline.side_length
+            for _ in range(30):
+                trial = y + alpha * side * phi
+                if pb.energy(trial) < e0 - 1e-12 * abs(e0):
+                    return trial
+                alpha *= 0.5
         return None
-
-    def _apex_up(self, y: np.ndarray) -> float:
-        """Apex height (mm) times the sign the perturbation asks for."""
-        return float(y[3 * self.apex + 2] - self.problem.X[self.apex, 2]) * self.up
 
     def solve_at(self, lam: float, start: np.ndarray, max_iterations: int = 0
                  ) -> tuple[NewtonResult, int, float]:
@@ -146,8 +161,8 @@ class Continuation:
 
     # ------------------------------------------------------------------ the path
     def _predictor(self, lam: float) -> np.ndarray:
-        if self.lam == 1.0:  # the scene's lift, as the DR starts
-            return self.problem.initial_guess()
+        if self.lam == 1.0:  # the flat state, left along its lowest mode where it is a saddle
+            return self.problem.initial_guess(lift=False)
         tangent = self._path_tangent()
         if tangent is not None:
             return self.y + tangent * (lam - self.lam)
@@ -212,12 +227,13 @@ class Continuation:
             lam = min(self.lam + self.step, target)
             if target - lam < 0.25 * self.step:  # do not leave a sliver before the target
                 lam = target
+            on_plane = planar(self.y.reshape(-1, 3), self.flat, self.side)
+            if on_plane and self.step >= 2 * LOCATE and self._flat_saddle(lam):
+                self.step *= 0.5  # the flat state buckled within this step: locate where
+                continue
             nr, pushes, _ = self.solve_at(lam, self._predictor(lam))
-            if not nr.converged or (self.lam == 1.0 and self._apex_up(nr.y) < 0):
-                # retry: without the predictor; or, off the lift, from the flat state, whose
-                # instability is met by an eigenmode step (apex up)
-                retry = self.problem.initial_guess(lift=False) if self.lam == 1.0 else self.y
-                nr, pushes, _ = self.solve_at(lam, retry)
+            if not nr.converged and self.lam > 1.0:  # retry without the predictor
+                nr, pushes, _ = self.solve_at(lam, self.y)
             if not nr.converged and self.step < 2 * MIN_STEP:
                 # the branch ends (a limit point): look for the state it snaps to
                 nr, pushes, _ = self.solve_at(lam, self.y, SNAP_ITERATIONS)
@@ -245,6 +261,19 @@ class Continuation:
                                f"Newton failed at lambda = {lam:.4f} ({nr.status}, residual "
                                f"{nr.residual:.2e} after {nr.iterations} iterations) even with "
                                f"steps below {MIN_STEP:g}", records)
+            move = largest_move(nr.y.reshape(-1, 3), self.y.reshape(-1, 3))
+            if on_plane and not planar(nr.y.reshape(-1, 3), self.flat, self.side):
+                self.snaps.append((self.lam, lam))  # left the flat state
+                self.rate, self.step = None, AFTER_EVENT
+            elif jumped(move, lam - self.lam, self.rate, self.side):
+                if self.step >= 2 * LOCATE:
+                    self.step *= 0.5  # cut the step until the jump is located
+                    continue
+                if (self.lam, lam) not in self.snaps:
+                    self.snaps.append((self.lam, lam))
+                self.rate, self.step = None, AFTER_EVENT
+            else:
+                self.rate = move / (lam - self.lam)
             found = self.contact(nr.y)
             if found is not None:
                 free, bad = self._bisect_contact(lam)

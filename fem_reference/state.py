@@ -8,12 +8,13 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from results import ENERGY_KEYS, Result
+from results.path import neutral_stiffness
 from scenes import Scene
 
 from .model import DemesProblem, Evaluation
 from .newton import NotFactorizable
 from .output import blocks, compressed_fraction, paper_formula_membrane_energy, slack_fractions
-from .stability import lowest_free_mode, neutral_tolerance
+from .stability import lowest_free_mode
 
 @dataclass
 class StepRecord:
@@ -135,7 +136,7 @@ def _stability(problem: DemesProblem, out: Outcome) -> Stability:
             omega = lowest_free_mode(problem, out.y)[0] if out.converged else float("nan")
         except NotFactorizable:
             pass
-    stable = bool(omega > -neutral_tolerance(problem.scene)) if np.isfinite(omega) else lam == 1.0
+    stable = bool(omega > -neutral_stiffness(problem.scene)) if np.isfinite(omega) else lam == 1.0
     return Stability(omega, stable)
 
 
@@ -157,7 +158,7 @@ def _status_and_message(scene: Scene, out: Outcome, requested: float, residual: 
         message += (f"; the {scene.membrane.law} film is in compression over {100 * compressed:.1f} % of its "
                     "area: it would wrinkle, which this membrane model does not represent")
     if out.snaps:
-        message += "; snapped through at " + ", ".join(
+        message += "; jumped at " + ", ".join(
             f"lambda = {a:.4f} -> {b:.4f}" for a, b in out.snaps) + " (end of the branch)"
     if lam < requested - 1e-12:
         message += f"; the requested lambda = {requested:.3f} was not reached"

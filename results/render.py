@@ -101,7 +101,9 @@ def render_states(states: Sequence[Result], path: str | Path, title: str = "",
     """
     n = len(states)
     pl = plotter(shape=(1, n), window_size=(panel_size[0] * n, panel_size[1]), border=False)
-    scale = 0.62 * max(res.scene.outline.side_length for res in states)
+    # half the largest bounding-box diagonal: the whole of every state fits, from any side
+    scale = 0.53 * max(float(np.linalg.norm(np.ptp(res.x[np.isfinite(res.x).all(axis=1)], axis=0)))
+                       for res in states)
     for k, res in enumerate(states):
         pl.subplot(0, k)
         add_state(pl, res)

@@ -96,10 +96,13 @@ def test_solved_state_is_stable_symmetric_and_curls_up(strip_states):
     _, mirror = cKDTree(x0).query(x0 * [-1.0, 1.0, 1.0])
     assert np.abs(res.x[mirror] * [-1.0, 1.0, 1.0] - res.x).max() < 1e-6
     # Newton ends quadratically: the last residual is at most a few times the square of the one
-    # before (in units of the force scale), for every continuation step that took >= 3 steps
+    # before (in units of the force scale), for every continuation step that took >= 3 steps,
+    # away from where the path left the flat state (near a bifurcation the tangent is nearly
+    # singular and Newton's constant, about 1 / its lowest eigenvalue, is large)
+    left = max(b for _, b in res.info["snaps"])
     for step in res.info["newton"]:
         r = step["residuals"]
-        if len(r) >= 3 and 1e-9 < r[-2] < 1e-3:
+        if len(r) >= 3 and 1e-9 < r[-2] < 1e-3 and step["prestretch"] > left + 0.02:
             assert r[-1] <= 1e3 * r[-2] ** 2 + 1e-9, r
 
 

@@ -244,6 +244,21 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     return 2 if study.failed else 0
 
 
+def cmd_gallery(args: argparse.Namespace) -> int:
+    from .gallery import GALLERY, run_gallery, table
+
+    if not 1 <= args.workers <= 64:
+        raise DemesError(f"--workers {args.workers}: give 1 to 64 worker processes")
+    names = args.scenes or list(GALLERY)
+    lams = sorted(set(prestretch_list("--prestretch", args.prestretch)))
+    out = writable_folder(args.out)
+    rows = run_gallery(out, names, lams, divisions=args.divisions, workers=args.workers, scheduler=args.scheduler,
+                       progress=not args.no_progress)
+    print(table(rows), end="")
+    print(f"wrote {out / 'gallery.md'}, {out / 'gallery.csv'}, the states (.vtu) and a picture per scene")
+    return 0 if rows and all(r["agree"] for r in rows) else 2
+
+
 def cmd_bench(args: argparse.Namespace) -> int:
     from . import bench
 
@@ -333,6 +348,15 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--set", action="append", metavar="KEY=VALUE", help="change a scene field")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.set_defaults(func=cmd_validate)
+    p = sub.add_parser("gallery", help="DR and the FEM on one discrete problem for built-in scenes of varied "
+                                       "outlines: one table (agreement, branch, stability, jumps, time) and pictures")
+    p.add_argument("--scenes", nargs="+", metavar="NAME", help="scene names or .toml files (default: the gallery's)")
+    p.add_argument("--prestretch", type=float, nargs="+", default=[1.1, 1.3], help="pre-stretch levels (default 1.1 1.3)")
+    p.add_argument("--divisions", type=int, default=14, help="mesh.divisions (default 14)")
+    p.add_argument("--out", default="out/gallery", help="output folder (default: out/gallery)")
+    _cluster_options(p)
+    p.add_argument("--no-progress", action="store_true", help="no progress bar")
+    p.set_defaults(func=cmd_gallery)
     p = sub.add_parser("sweep", help="design study over a grid of scene fields (GRID.toml), on a Dask cluster")
     p.add_argument("grid", help="grid file: base scene, swept fields, pre-stretch list (see examples/design_grid.toml)")
     p.add_argument("--out", help="output folder (default: out/sweep/<grid>); finished points there are kept")

@@ -1,0 +1,91 @@
+"""The rules both solvers follow along the pre-stretch path, defined once.
+
+Both start from the flat state at lambda = 1, an equilibrium that loses stability at the
+buckling pre-stretch. A state whose lowest mode has a negative stiffness is a saddle: it is
+left along that mode, on the side :func:`side_of_mode` picks from the scene's lift, and
+solved again. A step whose state moved far more than the path's rate so far predicts is a jump
+(a limit point or a bifurcation passed over): the step is cut until it is shorter than
+:data:`LOCATE`, where the jump is accepted and recorded as an :class:`Event`. So the state a
+pre-stretch gives does not depend on the steps a command asks for.
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+
+LOCATE = 1e-3
+"""A jump is located to a pre-stretch step shorter than this, then accepted."""
+
+PLANAR = 1e-6
+"""A state whose nodes all lie within this fraction of the side length of the flat state's
+height is the flat state itself (round-off moves it no further)."""
+
+AFTER_EVENT = 4 * LOCATE
+"""The step after a jump or a bifurcation: small, because the new branch's own rate is not
+known yet (the first step after an event is never called a jump) and a second bifurcation
+can follow close behind (on a square the twist of the flat state turns into the curl 0.003
+further on)."""
+
+JUMP_RATIO = 3.0
+"""A step is a jump when its state moved more than this many times what the last step's rate
+(largest nodal move per unit pre-stretch) predicts."""
+
+JUMP_FLOOR = 0.02
+"""...and more than this fraction of the side length: the flat branch barely moves, so any
+move of the order of the lift would read as a jump off it."""
+
+
+class Event(NamedTuple):
+    """A place on the path where the state left its branch."""
+
+    kind: str  # 'bifurcation' (a saddle left along its mode) or 'jump' (a limit point passed)
+    from_prestretch: float  # the last state on the old branch
+    to_prestretch: float  # the first state on the new one
+
+    def describe(self) -> str:
+        return f"{self.kind} between lambda = {self.from_prestretch:.4f} and {self.to_prestretch:.4f}"
+
+
+def neutral_stiffness(scene) -> float:
+    """N/mm^3: a lowest eigenvalue of the stiffness per unit film area (u K u / u A u, A the
+    nodal film areas) above minus this counts as zero, a neutral mode (a slack film, round-off):
+    1e-6 of E h / side^2, far below any physical out-of-plane stiffness of the film. Both
+    solvers judge stability by it."""
+    return 1e-6 * scene.membrane.E * scene.membrane.thickness / scene.outline.side_length**2
+
+
+def side_of_mode(mode: np.ndarray, *, apex: int, lift: np.ndarray, up: float) -> float:
+    """+1 or -1: the sign that puts the scene's lift side on the mode ``mode`` (n, 3).
+
+    The apex goes to the side ``up`` (the sign of ``perturbation.amplitude``); a mode that
+    leaves the apex in the plane (a twist) is taken with a positive projection on the lift
+    ``lift`` (n, 3), which carries the scene's ``perturbation.asymmetry``."""
+    tilt = float(mode[apex, 2])
+    if abs(tilt) > 1e-6 * float(np.abs(mode).max()):
+        return float(np.sign(tilt) * up)
+    return float(np.sign(np.sum(mode * lift)) or up)
+
+
+def planar(x: np.ndarray, flat: np.ndarray, side_length: float) -> bool:
+    """Whether positions ``x`` (n, 3) mm are the flat state ``flat`` (n, 3) but for in-plane moves.
+
+    Leaving the flat state is a bifurcation: the step that does is cut (as a jump's) until
+    it is shorter than :data:`LOCATE`, so both solvers leave it just past the buckling
+    pre-stretch, along the one mode that has gone unstable there."""
+    return float(np.abs(np.asarray(x)[:, 2] - np.asarray(flat)[:, 2]).max()) <= PLANAR * side_length
+
+
+def largest_move(x: np.ndarray, x_before: np.ndarray) -> float:
+    """Largest nodal distance between two states (n, 3), mm."""
+    return float(np.linalg.norm(np.asarray(x) - np.asarray(x_before), axis=1).max())
+
+
+def jumped(move: float, step: float, rate: float | None, side_length: float) -> bool:
+    """Whether a step of ``step`` in pre-stretch whose state moved ``move`` mm left the branch
+    the last steps followed at ``rate`` mm per unit pre-stretch (None: no rate yet, e.g. the
+    first step or the first after a jump, which is never called one)."""
+    if rate is None:
+        return False
+    return move > max(JUMP_RATIO * rate * step, JUMP_FLOOR * side_length)

@@ -1,0 +1,65 @@
+"""The path rules both solvers share (results.path), and the FEM's path on a rectangle: the state
+a pre-stretch gives does not depend on the levels asked for, and the lift's sign only mirrors it."""
+
+import numpy as np
+import pytest
+
+import fem_reference
+import scenes
+from results.path import JUMP_FLOOR, jumped, planar, side_of_mode
+
+RECT = {"frame.outline": "polygon", "frame.vertices": [[-20.0, 0.0], [20.0, 0.0], [20.0, 60.0], [-20.0, 60.0]],
+        "frame.corner_radius": 4.0, "mesh.divisions": 8}
+
+
+def _modes():
+    nodes = np.array([[0.0, 0.0], [10.0, 0.0], [10.0, 10.0], [0.0, 10.0], [5.0, 10.0]])
+    lift = np.zeros((5, 3))
+    lift[:, 2] = 0.5 * (nodes[:, 1] / 10.0) ** 2
+    return nodes, lift
+
+
+def test_the_apex_goes_to_the_lifts_side_and_a_twist_follows_the_lift():
+    _, lift = _modes()
+    apex = 4
+    curl_down = np.zeros((5, 3))
+    curl_down[:, 2] = -lift[:, 2] / lift[:, 2].max()
+    assert side_of_mode(curl_down, apex=apex, lift=lift, up=1.0) == -1.0  # flipped: the apex goes up
+    assert side_of_mode(curl_down, apex=apex, lift=lift, up=-1.0) == 1.0
+    twist = np.zeros((5, 3))
+    twist[[2, 3], 2] = [1.0, -1.0]  # the apex stays in the plane
+    tilted = lift.copy()
+    tilted[2, 2] -= 0.1  # the scene's asymmetry leans the lift to node 3
+    assert side_of_mode(twist, apex=apex, lift=tilted, up=1.0) == -1.0
+
+
+def test_a_jump_is_a_move_far_beyond_the_paths_rate():
+    side = 40.0
+    assert not jumped(30.0, 0.01, None, side)  # no rate yet: never a jump
+    assert not jumped(1.0, 0.01, 100.0, side)  # as the rate predicts
+    assert not jumped(0.5 * JUMP_FLOOR * side, 0.01, 1.0, side)  # 50x the rate, but below the floor
+    assert jumped(10.0, 0.01, 100.0, side)
+    flat = np.zeros((3, 3))
+    assert planar(flat + [1.0, 2.0, 0.0], flat, side) and not planar(flat + [0.0, 0.0, 1e-3], flat, side)
+
+
+@pytest.fixture(scope="module")
+def rectangle():
+    return scenes.load("square").updated(**RECT)
+
+
+def test_the_fem_state_at_a_prestretch_does_not_depend_on_the_levels_asked_for(rectangle):
+    direct = list(fem_reference.sweep(rectangle, [1.3]))[-1]
+    stepped = list(fem_reference.sweep(rectangle, [1.1, 1.3]))[-1]
+    assert direct.converged and stepped.converged
+    assert stepped.bending_angle == pytest.approx(direct.bending_angle, abs=1e-3)
+    assert stepped.energy["total"] == pytest.approx(direct.energy["total"], rel=1e-8)
+    assert stepped.info["stable"] and direct.info["stable"]
+
+
+def test_the_lifts_sign_mirrors_the_fem_state_through_the_plane(rectangle):
+    up = fem_reference.solve(rectangle.updated(prestretch=1.1))
+    down = fem_reference.solve(rectangle.updated(prestretch=1.1, **{"perturbation.amplitude": -0.5}))
+    assert up.branch == "up" and down.branch == "down"
+    assert down.bending_angle == pytest.approx(-up.bending_angle, abs=1e-3)
+    assert down.energy["total"] == pytest.approx(up.energy["total"], rel=1e-8)
