@@ -37,9 +37,9 @@ ENERGY_AGREES = 1e-4
 COLUMNS = (
     ("scene", "-"), ("prestretch", "-"),
     ("dr_status", "-"), ("dr_angle", "deg"), ("dr_branch", "-"), ("dr_energy", "N mm"), ("dr_stable", "-"),
-    ("dr_jumps", "-"), ("dr_time", "s"),
+    ("dr_jumps", "-"), ("dr_time", "s"), ("dr_reached", "-"),
     ("fem_status", "-"), ("fem_angle", "deg"), ("fem_branch", "-"), ("fem_energy", "N mm"), ("fem_stable", "-"),
-    ("fem_jumps", "-"), ("fem_time", "s"),
+    ("fem_jumps", "-"), ("fem_time", "s"), ("fem_reached", "-"),
     ("angle_difference", "deg"), ("energy_difference", "-"), ("agree", "-"),
 )
 
@@ -60,7 +60,8 @@ def _solver_columns(prefix: str, res: Result | None) -> dict[str, Any]:
     row = res.summary()
     return {f"{prefix}_status": res.status, f"{prefix}_angle": row["bending_angle"], f"{prefix}_branch": row["branch"],
             f"{prefix}_energy": res.energy["total"], f"{prefix}_stable": res.info.get("stable", ""),
-            f"{prefix}_jumps": _jumps(res), f"{prefix}_time": res.wall_time}
+            f"{prefix}_jumps": _jumps(res), f"{prefix}_time": res.wall_time,
+        f"{prefix}_reached": res.prestretch}
 
 
 def compare(name: str, lam: float, dr_state: Result | None, fem_state: Result | None) -> dict[str, Any]:
@@ -91,7 +92,9 @@ def run_scene(name: str, out_dir: str, prestretches: Sequence[float], divisions:
         states[solver] = {}
         for res in sweep(scene, list(prestretches)):
             res.write_vtk(out / f"{name}_{solver}_{level_label(res.prestretch)}.vtu")
-            states[solver][res.prestretch] = res
+            # a path that stopped short (contact, fold) is shown at the level it was headed for
+            headed = min((lam for lam in prestretches if lam >= res.prestretch - 1e-12), default=res.prestretch)
+            states[solver][headed] = res
     _picture(name, states, out)
     return [compare(name, lam, states["dr"].get(lam), states["fem"].get(lam)) for lam in prestretches]
 
@@ -131,6 +134,13 @@ def run_gallery(out_dir: str | Path, names: Sequence[str] = GALLERY, prestretche
     return rows
 
 
+def _status(row: dict[str, Any], prefix: str) -> str:
+    """A solver's status, with the pre-stretch it stopped at where that is short of the row's."""
+    reached = row.get(f"{prefix}_reached", row["prestretch"])
+    status = row[f"{prefix}_status"]
+    return status if reached >= row["prestretch"] - 1e-12 else f"{status} at {reached:.4f}"
+
+
 def table(rows: Sequence[dict[str, Any]], errors: Sequence[str] = (), seconds: float = float("nan")) -> str:
     """The gallery table in Markdown."""
     def angle(v: Any) -> str:
@@ -148,7 +158,7 @@ def table(rows: Sequence[dict[str, Any]], errors: Sequence[str] = (), seconds: f
             f"| {r['scene']} | {r['prestretch']:g} | {angle(r.get('dr_angle'))} | {angle(r.get('fem_angle'))} | "
             f"{r.get('dr_branch', '-')}/{r.get('fem_branch', '-')} | {de:.1e} | {'yes' if r['agree'] else 'no'} | "
             f"{r.get('dr_stable', '-')}/{r.get('fem_stable', '-')} | {r.get('dr_jumps') or '-'} / {r.get('fem_jumps') or '-'} | "
-            f"{r.get('dr_time', np.nan):.1f} | {r.get('fem_time', np.nan):.1f} | {r['dr_status']}/{r['fem_status']} |")
+            f"{r.get('dr_time', np.nan):.1f} | {r.get('fem_time', np.nan):.1f} | {_status(r, 'dr')}/{_status(r, 'fem')} |")
     agreed = sum(bool(r["agree"]) for r in rows)
     lines += ["", f"{agreed} of {len(rows)} states agree" + (f"; {seconds:.0f} s in all" if np.isfinite(seconds) else "") + "."]
     lines += [f"- {e}" for e in errors]
