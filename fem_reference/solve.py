@@ -2,12 +2,13 @@
 
 Path: lambda = 1 is the flat, stress-free state. Each continuation step raises lambda by at most
 ``MAX_STEP`` and solves by Newton from a tangent predictor, K dy/dlambda = -dg/dlambda at the
-last state (a secant where that tangent cannot be factorised; the first step from the scene's
-smooth apex-up lift, as the DR starts; if that ends apex down, from the flat state); a failed
-step is halved, and where the branch ends (a limit point) a long Newton solve looks for the state
-it snaps to. Every converged state's tangent is checked: while it has a negative eigenvalue (the
-flat state loses stability almost at once) the state is pushed along the lowest eigenmode, apex
-up, and solved again, so only stable states are accepted. After each step the frame is checked
+last state (a secant where that tangent cannot be factorised; the first step from the flat
+state); a failed step is halved, and where the branch ends (a limit point) a long Newton solve
+looks for the state it snaps to. Every converged state's tangent is checked: while it has a
+negative eigenvalue (the flat state loses stability almost at once) the state is pushed along
+the lowest eigenmode, on the lift's side, and solved again, so only stable states are accepted.
+The step on which the flat state buckles and a step that jumps off the branch are cut until
+located (the rules of :mod:`results.path`). After each step the frame is checked
 for self-contact and the taut film for folds; the first one stops the path, with the pre-stretch
 located by bisection. Refined levels follow the path on the coarsest mesh, each level starting
 Newton from the state of the level below (mesh sequencing), falling back to its own continuation.
@@ -95,7 +96,7 @@ class Continuation:
         sign = side_of_mode(phi.reshape(-1, 3), apex=self.apex, lift=self.lift.reshape(-1, 3), up=self.up)
         e0 = pb.energy(y)
         for side in (sign, -sign):
-            alpha = 0.05 * self.scene.outline.side_length
+            alpha = 0.05 * self.side
             for _ in range(30):
                 trial = y + alpha * side * phi
                 if pb.energy(trial) < e0 - 1e-12 * abs(e0):

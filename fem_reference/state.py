@@ -40,7 +40,7 @@ class Outcome:
     detail: str
     records: list[StepRecord] = field(default_factory=list)
     first_contact: tuple[float, float] | None = None  # (last free, first in contact) lambda
-    snaps: list[tuple[float, float]] = field(default_factory=list)  # limit points jumped
+    snaps: list[tuple[float, float]] = field(default_factory=list)  # branches left: (last on, first off)
     lowest_eigenvalue: float = float("nan")
 
     @property
@@ -159,7 +159,7 @@ def _status_and_message(scene: Scene, out: Outcome, requested: float, residual: 
                     "area: it would wrinkle, which this membrane model does not represent")
     if out.snaps:
         message += "; jumped at " + ", ".join(
-            f"lambda = {a:.4f} -> {b:.4f}" for a, b in out.snaps) + " (end of the branch)"
+            f"lambda = {a:.4f} -> {b:.4f}" for a, b in out.snaps) + " (where the path left its branch)"
     if lam < requested - 1e-12:
         message += f"; the requested lambda = {requested:.3f} was not reached"
     return status, converged, message

@@ -1,17 +1,17 @@
-"""The rules both solvers follow along the pre-stretch path, defined once.
+"""The rules of the pre-stretch path, defined once (the FEM's continuation follows them;
+docs/path.md says where DR stands).
 
-Both start from the flat state at lambda = 1, an equilibrium that loses stability at the
+The path starts from the flat state at lambda = 1, an equilibrium that loses stability at the
 buckling pre-stretch. A state whose lowest mode has a negative stiffness is a saddle: it is
 left along that mode, on the side :func:`side_of_mode` picks from the scene's lift, and
 solved again. A step whose state moved far more than the path's rate so far predicts is a jump
 (a limit point or a bifurcation passed over): the step is cut until it is shorter than
-:data:`LOCATE`, where the jump is accepted and recorded as an :class:`Event`. So the state a
+:data:`LOCATE`, where the jump is accepted and recorded (last pre-stretch on the old branch,
+first on the new one) in ``info['snaps']``. So the state a
 pre-stretch gives does not depend on the steps a command asks for.
 """
 
 from __future__ import annotations
-
-from typing import NamedTuple
 
 import numpy as np
 
@@ -35,17 +35,6 @@ JUMP_RATIO = 3.0
 JUMP_FLOOR = 0.02
 """...and more than this fraction of the side length: the flat branch barely moves, so any
 move of the order of the lift would read as a jump off it."""
-
-
-class Event(NamedTuple):
-    """A place on the path where the state left its branch."""
-
-    kind: str  # 'bifurcation' (a saddle left along its mode) or 'jump' (a limit point passed)
-    from_prestretch: float  # the last state on the old branch
-    to_prestretch: float  # the first state on the new one
-
-    def describe(self) -> str:
-        return f"{self.kind} between lambda = {self.from_prestretch:.4f} and {self.to_prestretch:.4f}"
 
 
 def neutral_stiffness(scene) -> float:

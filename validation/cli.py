@@ -255,7 +255,11 @@ def cmd_gallery(args: argparse.Namespace) -> int:
     rows = run_gallery(out, names, lams, divisions=args.divisions, workers=args.workers, scheduler=args.scheduler,
                        progress=not args.no_progress)
     print(table(rows), end="")
-    print(f"wrote {out / 'gallery.md'}, {out / 'gallery.csv'}, the states (.vtu) and a picture per scene")
+    unpictured = sorted({r["scene"] for r in rows if not (out / f"{r['scene']}.png").is_file()})
+    if unpictured:
+        print(f"demes: no picture for {', '.join(unpictured)}: this machine cannot render off-screen",
+              file=sys.stderr)
+    print(f"wrote {out / 'gallery.md'}, {out / 'gallery.csv'}, the states (.vtu) and the pictures")
     return 0 if rows and all(r["agree"] for r in rows) else 2
 
 

@@ -80,8 +80,8 @@ def compare(name: str, lam: float, dr_state: Result | None, fem_state: Result | 
 
 
 def run_scene(name: str, out_dir: str, prestretches: Sequence[float], divisions: int) -> list[dict[str, Any]]:
-    """Both solvers along the path of scene ``name``; writes its VTK states and picture and
-    returns its rows."""
+    """Both solvers along the path of scene ``name`` (a built-in name or a .toml file); writes
+    its VTK states and picture, named by the scene's own name, and returns its rows."""
     import dr
     import fem_reference
 
@@ -91,22 +91,24 @@ def run_scene(name: str, out_dir: str, prestretches: Sequence[float], divisions:
     for solver, sweep in (("dr", dr.sweep), ("fem", fem_reference.sweep)):
         states[solver] = {}
         for res in sweep(scene, list(prestretches)):
-            res.write_vtk(out / f"{name}_{solver}_{level_label(res.prestretch)}.vtu")
+            res.write_vtk(out / f"{scene.name}_{solver}_{level_label(res.prestretch)}.vtu")
             # a path that stopped short (contact, fold) is shown at the level it was headed for
             headed = min((lam for lam in prestretches if lam >= res.prestretch - 1e-12), default=res.prestretch)
             states[solver][headed] = res
-    _picture(name, states, out)
-    return [compare(name, lam, states["dr"].get(lam), states["fem"].get(lam)) for lam in prestretches]
+    _picture(scene.name, states, out)
+    return [compare(scene.name, lam, states["dr"].get(lam), states["fem"].get(lam)) for lam in prestretches]
 
 
 def _picture(name: str, states: dict[str, dict[float, Result]], out: Path) -> None:
+    """``name``.png of the states, DR's then the FEM's; none where this machine cannot render
+    (``demes gallery`` names the scenes left without one)."""
     from results.render import RenderUnavailable, render_states
 
     shown = [*states["dr"].values(), *states["fem"].values()]
     try:
         render_states(shown, out / f"{name}.png", f"{name}: DR triangles ({len(states['dr'])}), then FEM P1")
     except RenderUnavailable:
-        pass  # the table stands without pictures; `demes gallery` says so once
+        pass
 
 
 def run_gallery(out_dir: str | Path, names: Sequence[str] = GALLERY, prestretches: Sequence[float] = PRESTRETCHES,
@@ -119,6 +121,7 @@ def run_gallery(out_dir: str | Path, names: Sequence[str] = GALLERY, prestretche
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     rows: list[dict[str, Any]] = []
+    finished: dict[str, list[dict[str, Any]]] = {}
     errors: list[str] = []
     t0 = time.perf_counter()
     with connect(scheduler, workers) as client:
@@ -127,8 +130,8 @@ def run_gallery(out_dir: str | Path, names: Sequence[str] = GALLERY, prestretche
             if outcome.error:
                 errors.append(f"{outcome.task}: {outcome.error}")
             else:
-                rows.extend(outcome.value)
-            rows.sort(key=lambda r: (list(names).index(r["scene"]), r["prestretch"]))
+                finished[outcome.task] = outcome.value
+            rows = [row for name in names for row in finished.get(name, [])]  # in the order asked for
             write_csv(out / "gallery.csv", rows, [c for c, _ in COLUMNS], dict(COLUMNS))
             atomic_write_text(out / "gallery.md", table(rows, errors, time.perf_counter() - t0))
     return rows
