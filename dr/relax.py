@@ -151,7 +151,7 @@ def relax(
     unresisted(itg.start(st, P, fm, cfg.half_safety), "after the first step")
     # measured after the first step, as every energy the divergence check compares with it
     stops = _Stops(contact=contact, final_checks=final_checks, e_start=potential_energy(X, P, model.loads),
-                   loads=model.loads, mass_safety=mass_safety, max_iterations=max_iterations, chunk=chunk, tol=tol)
+                   energy_floor=cfg.force_floor * cfg.runaway, loads=model.loads, mass_safety=mass_safety, max_iterations=max_iterations, chunk=chunk, tol=tol)
     run = _run_chunks(st, P, fm, cfg, stops, progress=progress)
     info = {"ke_peaks": run.peaks, "mass_safety": mass_safety, "masses": built.kind, "damping": damping,
             "frame_mass_nodes": int(fm.nodes.size)}
@@ -175,6 +175,7 @@ class _Stops:
     contact: FrameContact | None
     final_checks: Sequence[Check]
     e_start: float  # potential energy after the first step, N mm
+    energy_floor: float  # N mm: the work of the residual floor over the model's size, below any divergence
     loads: np.ndarray  # (n, 3) N
     mass_safety: float
     max_iterations: int
@@ -335,7 +336,7 @@ def _energy_rise(X: np.ndarray, P: Packed, stops: _Stops) -> str | None:
     """Why the run at X is unstable (its potential energy rose by :data:`ENERGY_RISE`), or None."""
     e_start, e_now = stops.e_start, potential_energy(X, P, stops.loads)
     rise = e_now - e_start
-    if not np.isfinite(rise) or rise <= ENERGY_RISE * max(abs(e_start), abs(e_now), 1e-300):
+    if not np.isfinite(rise) or rise <= ENERGY_RISE * max(abs(e_start), abs(e_now)) + stops.energy_floor:
         return None  # a NaN energy is named 'not_finite' when the result is made
     return (f"the energy rose from {e_start:.4g} to {e_now:.4g} N mm, which damping cannot do: the time step is "
             f"unstable with mass_safety = {stops.mass_safety:g}; raise it (f >= 1 is stable, 2 is safe)")

@@ -39,6 +39,13 @@ MODE_TOLERANCE = 1e-6
 SPECTRUM_KRYLOV = 60
 """Lanczos vectors kept for the ends of the spectrum (ARPACK's ``ncv``)."""
 
+MODE_KRYLOV = 40
+"""Lanczos vectors kept for the lowest mode (ARPACK's ``ncv``): 40 against ARPACK's 20 halved
+the applications of K on a curled 581-node rectangle (1461 -> 681)."""
+
+HILLTOP_ITERATIONS = 8
+"""Newton steps that locate the hilltop along a saddle's mode before it is left."""
+
 MODE_ITERATIONS = 2000
 """Largest number of Lanczos restarts for the lowest mode."""
 
@@ -51,6 +58,7 @@ class Mode(NamedTuple):
     iterations: int  # applications of K (two gradients each)
     found: bool  # converged to MODE_TOLERANCE
     stiffness: float  # its Rayleigh quotient v^T K v / v^T v, N/mm
+    per_area: float  # v^T K v / v^T A v, A the nodal film areas (flat), N/mm^3: the FEM's measure
 
 
 def potential_energy(X: np.ndarray, P: Packed, loads: np.ndarray) -> float:
@@ -123,17 +131,39 @@ def lowest_mode(model, x: np.ndarray, *, masses: str = "frame", guess: np.ndarra
     m = op.free.size
     start = np.ones(m) if guess is None else np.asarray(guess, dtype=float).reshape(-1)[op.free] + 1e-3
     try:
-        _, v = eigsh(op.C, k=1, which="SA", tol=MODE_TOLERANCE, v0=start, maxiter=MODE_ITERATIONS)
+        _, v = eigsh(op.C, k=1, which="SA", tol=MODE_TOLERANCE, v0=start, ncv=min(m, MODE_KRYLOV), maxiter=MODE_ITERATIONS)
         found = True
     except ArpackNoConvergence as stop:
         if not len(stop.eigenvalues):
-            return Mode(float("nan"), np.zeros((n, 3)), op.applications[0], False, float("nan"))
+            return Mode(float("nan"), np.zeros((n, 3)), op.applications[0], False, float("nan"), float("nan"))
         v, found = stop.eigenvectors, False
     u = op.to_displacement(v[:, 0] / np.linalg.norm(v[:, 0]))  # u^T M u = 1
     Ku = op.stiffness(u)
+    area = np.repeat(film_areas(model), 3)
     # the Rayleigh quotients of the mode itself: where K is not smooth (a cable at exactly its
     # rest length, tension-only) the Ritz value of a symmetric solver need not be one
-    return Mode(float(u @ Ku), _shape(u, n), op.applications[0], found, float(u @ Ku / (u @ u)))
+    return Mode(float(u @ Ku), _shape(u, n), op.applications[0], found, float(u @ Ku / (u @ u)),
+                float(u @ Ku / (u @ (area * u))) if area.any() else float("nan"))
+
+
+def film_areas(model) -> np.ndarray:
+    """(n,) mm^2: a third of the flat area of each of the model's triangles on each of its nodes."""
+    area = np.zeros(model.n)
+    tri = np.zeros((0, 3), int) if model.triangles is None else np.asarray(model.triangles, dtype=int).reshape(-1, 3)
+    if tri.size:
+        x = model.nodes
+        a = 0.5 * np.linalg.norm(np.cross(x[tri[:, 1]] - x[tri[:, 0]], x[tri[:, 2]] - x[tri[:, 0]]), axis=1)
+        np.add.at(area, tri.ravel(), np.repeat(a / 3.0, 3))
+    return area
+
+
+def is_saddle(mode: Mode, neutral: float) -> bool:
+    """Whether ``mode`` makes its state a saddle: a negative stiffness below minus ``neutral``
+    (N/mm^3) per unit film area (:func:`results.path.neutral_stiffness`, the FEM's measure);
+    a model without film by :data:`NEUTRAL` in units of the masses."""
+    if np.isfinite(mode.per_area):
+        return bool(mode.eigenvalue < 0.0 and mode.per_area < -neutral)
+    return bool(mode.eigenvalue < -NEUTRAL)
 
 
 class Spectrum(NamedTuple):
@@ -180,19 +210,55 @@ def spectrum(model, x: np.ndarray, *, masses: str = "frame", held: np.ndarray | 
 
 
 def leave_saddle(model, x: np.ndarray, mode: Mode, *, sign: float, size: float) -> np.ndarray | None:
-    """Positions off the saddle ``x`` along ``mode`` (times ``sign``, +1 or -1) where the
-    potential energy is lower: ``size`` mm at the node that moves most, halved until the
-    energy drops (at most 30 times); None if it never does."""
+    """Positions off the saddle near ``x`` along ``mode`` where the potential energy is lower.
+
+    A relaxation stops within its tolerance, which along a mode this soft can leave the state
+    on one side of the saddle already (on a square's twisted state, 3e-4 of the side off it):
+    the hilltop along the mode is found first (Newton on the energy's slope along it). From
+    there the step is ``size`` mm at the node that moves most, halved until the energy drops
+    (at most 30 times), on the side ``sign`` (+1 or -1) first, then, where the energy rises
+    that way, on the other; then doubled while the energy still drops (up to 16 ``size``), so
+    that the relaxation starts down the slope rather than creeping back to the saddle. None if
+    the energy never drops."""
     P = model.pack()
     X = np.zeros((P.n_total, 3))
-    X[: P.n] = x
-    e0 = potential_energy(X, P, model.loads)
-    step = size
-    for _ in range(30):
-        X[: P.n] = x + step * sign * mode.shape
-        if potential_energy(X, P, model.loads) < e0 - 1e-12 * abs(e0):
-            return X[: P.n].copy()
-        step *= 0.5
+    free = ~model.fixed[: P.n]
+
+    def energy_at(step: float) -> float:
+        X[: P.n] = x + step * mode.shape
+        return potential_energy(X, P, model.loads)
+
+    def slope_at(step: float) -> float:
+        X[: P.n] = x + step * mode.shape
+        G = np.zeros_like(X)
+        gradient(X, P, G, np.zeros((0, 6)))
+        return float(np.sum((G[: P.n] - model.loads) * mode.shape * free))
+
+    top, h = 0.0, 1e-4 * size
+    for _ in range(HILLTOP_ITERATIONS):
+        curvature = (slope_at(top + h) - slope_at(top - h)) / (2.0 * h)
+        if not curvature < 0.0:
+            break  # no hilltop along the mode here
+        move = -slope_at(top) / curvature
+        if not abs(top + move) < size:
+            top = 0.0  # the hilltop is not near: step from the state itself
+            break
+        top += move
+        if abs(move) < 1e-6 * size:
+            break
+    e0 = energy_at(top)
+    for side in (sign, -sign):
+        step = side * size
+        for _ in range(30):
+            e = energy_at(top + step)
+            if e < e0 - 1e-12 * abs(e0):
+                for _ in range(4):
+                    e_further = energy_at(top + 2.0 * step)
+                    if not e_further < e:
+                        break
+                    step, e = 2.0 * step, e_further
+                return x + (top + step) * mode.shape
+            step *= 0.5
     return None
 
 

@@ -93,7 +93,8 @@ class Continuation:
         phi = np.zeros(pb.n_dofs)
         phi[pb.free] = phi_free
         phi /= np.linalg.norm(phi.reshape(-1, 3), axis=1).max()
-        sign = side_of_mode(phi.reshape(-1, 3), apex=self.apex, lift=self.lift.reshape(-1, 3), up=self.up)
+        sign = side_of_mode(phi.reshape(-1, 3), apex=self.apex, lift=self.lift.reshape(-1, 3), up=self.up,
+                            flat=self.flat)
         e0 = pb.energy(y)
         for side in (sign, -sign):
             alpha = 0.05 * self.side

@@ -82,26 +82,30 @@ WHOLE_TURN = 360.0
 constant curvature has turned half the frame's turn; at a whole turn the frame has come round
 onto its own base. A reading beyond counts the turns of a path, not where the apex is."""
 
-BRANCHES = ("up", "down", "flat")
-"""The branch names: the side of the flat plane the apex went to from the flat state."""
+BRANCHES = ("up", "down", "flat", "twisted")
+"""The branch names: the side of the flat plane the apex went to from the flat state; the flat
+state; a frame out of its plane whose apex did not tilt (a twist)."""
 
 
 def branch(theta: float, lift: float = 1.0) -> str:
     """The branch of a state of bending angle ``theta`` (deg, counted continuously from flat)
     whose frame is at most ``lift`` (a fraction of the side) from the flat plane: 'up' (the
-    apex went to +z from the flat state, theta > 0), 'down' (to -z, theta < 0) or 'flat'
-    (:data:`FLAT_ANGLE`, :data:`FLAT_LIFT`); 'unknown' for a NaN angle.
+    apex went to +z from the flat state, theta > 0), 'down' (to -z, theta < 0), 'flat'
+    (:data:`FLAT_LIFT`) or 'twisted' (out of the plane, the angle within :data:`FLAT_ANGLE`
+    of 0); 'unknown' for a NaN angle.
 
     The sign of the continuous angle, not of the apex height: a curl past 180 deg has the apex
     below the plane behind the base, and it is still the branch that went up.
 
-    >>> branch(200.0), branch(-30.0), branch(0.0), branch(-180.0, lift=0.0)
-    ('up', 'down', 'flat', 'flat')
+    >>> branch(200.0), branch(-30.0), branch(0.0, lift=0.0), branch(-180.0, lift=0.0), branch(0.0, lift=0.2)
+    ('up', 'down', 'flat', 'flat', 'twisted')
     """
     if not np.isfinite(theta):
         return "unknown"
-    if abs(theta) < FLAT_ANGLE or lift < FLAT_LIFT:
+    if lift < FLAT_LIFT:
         return "flat"
+    if abs(theta) < FLAT_ANGLE:
+        return "twisted"
     return "up" if theta > 0 else "down"
 
 

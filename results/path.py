@@ -37,6 +37,10 @@ JUMP_FLOOR = 0.02
 move of the order of the lift would read as a jump off it."""
 
 
+UNSEEN = 1e-3
+"""A mode whose cosine with the lift is below this is one the lift does not see."""
+
+
 def neutral_stiffness(scene) -> float:
     """N/mm^3: a lowest eigenvalue of the stiffness per unit film area (u K u / u A u, A the
     nodal film areas) above minus this counts as zero, a neutral mode (a slack film, round-off):
@@ -45,16 +49,27 @@ def neutral_stiffness(scene) -> float:
     return 1e-6 * scene.membrane.E * scene.membrane.thickness / scene.outline.side_length**2
 
 
-def side_of_mode(mode: np.ndarray, *, apex: int, lift: np.ndarray, up: float) -> float:
+def side_of_mode(mode: np.ndarray, *, apex: int, lift: np.ndarray, up: float, flat: np.ndarray) -> float:
     """+1 or -1: the sign that puts the scene's lift side on the mode ``mode`` (n, 3).
 
     The apex goes to the side ``up`` (the sign of ``perturbation.amplitude``); a mode that
     leaves the apex in the plane (a twist) is taken with a positive projection on the lift
-    ``lift`` (n, 3), which carries the scene's ``perturbation.asymmetry``."""
+    ``lift`` (n, 3), which carries the scene's ``perturbation.asymmetry``. Where the lift does
+    not see the mode (a twist under a lift symmetric about x = 0: the projection is round-off,
+    different in each solver), the side x > 0 goes to the side ``up``: a projection of the sign
+    of ``up`` on the asymmetry's own shape, x y^2 at the flat positions ``flat`` (n, 3) mm (so
+    that a scene lifted the other way gives the state mirrored through the plane, twist and
+    all)."""
+    mode = np.asarray(mode)
     tilt = float(mode[apex, 2])
     if abs(tilt) > 1e-6 * float(np.abs(mode).max()):
         return float(np.sign(tilt) * up)
-    return float(np.sign(np.sum(mode * lift)) or up)
+    along = float(np.sum(mode[:, 2] * lift[:, 2]))
+    if abs(along) > UNSEEN * np.linalg.norm(mode[:, 2]) * np.linalg.norm(lift[:, 2]):
+        return float(np.sign(along))
+    flat = np.asarray(flat)
+    tilt_shape = flat[:, 0] * np.clip(flat[:, 1], 0.0, None) ** 2
+    return float(np.sign(np.sum(mode[:, 2] * tilt_shape)) * up or up)
 
 
 def planar(x: np.ndarray, flat: np.ndarray, side_length: float) -> bool:

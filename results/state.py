@@ -162,7 +162,8 @@ class Result:
     @property
     def branch(self) -> str:
         """'up' or 'down': the side of the flat plane the apex went to from the flat state (the
-        sign of the continuous angle), 'flat' on the flat branch (:func:`results.metrics.branch`)."""
+        sign of the continuous angle), 'flat' on the flat branch, 'twisted' out of the plane
+        with the apex untilted (:func:`results.metrics.branch`)."""
         return metrics.branch(self._continuous_angle(), self._lift())
 
     def _lift(self) -> float:

@@ -483,8 +483,6 @@ class DRSpec(_Section):
         "largest pre-stretch increment the path grows to away from the flat state (doubling after each "
         "converged step, halved on a stop); 0: every step dr.prestretch_step",
         bounds=f"0, or in [dr.prestretch_step, {PRESTRETCH_MAX:g}]")
-    step_tolerance: float = spec(
-        1e-2, between(1e-12, 0.1, why=" (relative residual)"), "", "tolerance of the intermediate pre-stretch steps")
     coarse_start: bool = spec(
         True, boolean, "",
         "with 'triangles' at fem.refinement >= 1, from the flat state: follow the path on refinement 0 and "

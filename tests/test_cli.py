@@ -89,11 +89,11 @@ def test_a_repeated_prestretch_is_solved_once(tmp_path, capsys):
 
 
 def test_demes_solve_without_contact_checks_says_so_and_names_what_it_cannot_read(tmp_path, capsys):
-    """Table I's frame at 6 divisions, contact checks off: flat at 1.2, and at 1.4 its sides have
-    crossed each other (the frame passed through itself, which the checks would have stopped):
-    that state reads 'unreadable', not 93 deg, and the run says once that nothing was checked."""
+    """Table I's frame at 6 divisions, contact checks off: twisted at 1.1, and at 1.2 its film has
+    passed through itself (which the checks would have stopped): that state reads 'unreadable',
+    not 31.7 deg, and the run says once that nothing was checked."""
     out = tmp_path / "run"
-    code = main(["solve", "--solver", "dr", "--mesh-levels", "6", "--prestretch", "1.2", "1.4", "--set", "mesh.divisions=6", "--set", "dr.check_contact=false",
+    code = main(["solve", "--solver", "dr", "--mesh-levels", "6", "--prestretch", "1.1", "1.2", "--set", "mesh.divisions=6", "--set", "dr.check_contact=false",
                  "--frame-model", "paper", "--out", str(out), "--no-progress"])
     assert code == 2  # a state without an answer
     printed = capsys.readouterr().out
@@ -103,10 +103,10 @@ def test_demes_solve_without_contact_checks_says_so_and_names_what_it_cannot_rea
     assert "branch" in table[head]
     last = table[head + 2].split()
     assert last[1:3] == ["unreadable", "up"] and last[table[head].split().index("status")] == "unreadable"
-    assert "the bending angle cannot be read: the frame passes through itself" in printed
+    assert "the bending angle cannot be read: the film passes through itself" in printed
     with open(out / "dr_paper.csv") as f:
         rows = list(csv.DictReader(f))
-    assert [r["branch"] for r in rows] == ["flat", "up"]
+    assert [r["branch"] for r in rows] == ["twisted", "up"]
     assert [r["contact_checked"] for r in rows] == ["no", "no"]
-    assert rows[1]["bending_angle [deg]"] == "nan" and rows[1]["angle_unreadable"] == "frame_crossing"
+    assert rows[1]["bending_angle [deg]"] == "nan" and rows[1]["angle_unreadable"] == "film_crossing"
     assert (rows[1]["status"], rows[1]["converged"]) == ("unreadable", "no")

@@ -20,17 +20,23 @@ def _modes():
 
 
 def test_the_apex_goes_to_the_lifts_side_and_a_twist_follows_the_lift():
-    _, lift = _modes()
+    nodes, lift = _modes()
     apex = 4
     curl_down = np.zeros((5, 3))
     curl_down[:, 2] = -lift[:, 2] / lift[:, 2].max()
-    assert side_of_mode(curl_down, apex=apex, lift=lift, up=1.0) == -1.0  # flipped: the apex goes up
-    assert side_of_mode(curl_down, apex=apex, lift=lift, up=-1.0) == 1.0
+    flat = np.zeros((5, 3))
+    flat[:, :2] = nodes - [5.0, 0.0]  # symmetric about x = 0
+    assert side_of_mode(curl_down, apex=apex, lift=lift, up=1.0, flat=flat) == -1.0  # flipped: the apex goes up
+    assert side_of_mode(curl_down, apex=apex, lift=lift, up=-1.0, flat=flat) == 1.0
     twist = np.zeros((5, 3))
     twist[[2, 3], 2] = [1.0, -1.0]  # the apex stays in the plane
     tilted = lift.copy()
     tilted[2, 2] -= 0.1  # the scene's asymmetry leans the lift to node 3
-    assert side_of_mode(twist, apex=apex, lift=tilted, up=1.0) == -1.0
+    assert side_of_mode(twist, apex=apex, lift=tilted, up=1.0, flat=flat) == -1.0
+    # a lift symmetric about x = 0 does not see a twist: the side x > 0 goes to the lift's side
+    assert side_of_mode(twist, apex=apex, lift=lift, up=1.0, flat=flat) == 1.0
+    assert side_of_mode(-twist, apex=apex, lift=lift, up=1.0, flat=flat) == -1.0
+    assert side_of_mode(twist, apex=apex, lift=lift, up=-1.0, flat=flat) == -1.0
 
 
 def test_a_jump_is_a_move_far_beyond_the_paths_rate():
