@@ -465,7 +465,7 @@ def _follow_path(scene: Scene, dm: DemesModel, x_start: np.ndarray, start: float
         if broke:
             # the state fell off a symmetric one (dr.symmetry), to a side round-off and drift
             # picked: leave the symmetric state instead along its lowest mode, on the lift's side
-            res = replace(res, x=restore(x_start, kept))
+            res = replace(res, x=restore(x_start, kept, dm.model.fixed))
         mode = _lowest_mode(dm, res, relax_with) if res.converged else None
         if (mode is not None and lam > reached and step >= 2 * LOCATE
                 and (broke or stability.is_saddle(mode, dm.neutral))):
@@ -545,7 +545,7 @@ def _off_saddles(scene: Scene, dm: DemesModel, res: Result, runs: list[Result], 
             return runs[-1]
         # from the symmetric state the saddle is, not from the drift a relaxation left along its mode
         kept = kept_by(res.x, dm.symmetries, scene.outline.side_length)
-        saddle = restore(res.x, kept)
+        saddle = restore(res.x, kept, dm.model.fixed)
         mode = mode._replace(shape=restore_mode(mode.shape, kept))
         sign = side_of_mode(mode.shape, apex=apex, lift=lift, up=up, flat=dm.model.nodes)
         pushed = (stability.leave_saddle(dm.model, saddle, mode, sign=sign, size=SADDLE_STEP * scene.outline.side_length)

@@ -72,12 +72,16 @@ def kept_by(x: np.ndarray, symmetries: list[Symmetry], side_length: float) -> li
     return [g for g in symmetries if np.abs(g.apply(x) - x).max() <= SYMMETRIC * side_length]
 
 
-def restore(x: np.ndarray, symmetries: list[Symmetry]) -> np.ndarray:
+def restore(x: np.ndarray, symmetries: list[Symmetry], fixed: np.ndarray | None = None) -> np.ndarray:
     """``x`` made to keep ``symmetries`` exactly: the mean of it and its images (the model's
-    symmetries commute, so projecting on each in turn projects on all)."""
+    symmetries commute, so projecting on each in turn projects on all); the held coordinates
+    ``fixed`` (n, 3) bool stay bit for bit where they are."""
+    y = x
     for g in symmetries:
-        x = 0.5 * (x + g.apply(x))
-    return x
+        y = 0.5 * (y + g.apply(y))
+    if fixed is not None:
+        y = np.where(fixed, x, y)
+    return y
 
 
 def restore_mode(shape: np.ndarray, symmetries: list[Symmetry]) -> np.ndarray:

@@ -1,12 +1,15 @@
-"""The path rules both solvers share (results.path), and the FEM's path on a rectangle: the state
-a pre-stretch gives does not depend on the levels asked for, and the lift's sign only mirrors it."""
+"""The path rules both solvers share (results.path), and the path on a rectangle: the FEM's state
+at a pre-stretch does not depend on the levels asked for, the lift's sign only mirrors it, and
+DR follows the same path."""
 
 import numpy as np
 import pytest
 
+import dr
 import fem_reference
 import scenes
-from results.path import JUMP_FLOOR, jumped, planar, side_of_mode
+from dr.symmetry import kept_by, restore
+from results.path import JUMP_FLOOR, LOCATE, jumped, planar, side_of_mode
 
 RECT = {"frame.outline": "polygon", "frame.vertices": [[-20.0, 0.0], [20.0, 0.0], [20.0, 60.0], [-20.0, 60.0]],
         "frame.corner_radius": 4.0, "mesh.divisions": 8}
@@ -69,3 +72,38 @@ def test_the_lifts_sign_mirrors_the_fem_state_through_the_plane(rectangle):
     assert up.branch == "up" and down.branch == "down"
     assert down.bending_angle == pytest.approx(-up.bending_angle, abs=1e-3)
     assert down.energy["total"] == pytest.approx(up.energy["total"], rel=1e-8)
+
+
+def test_dr_follows_the_fems_path_through_the_twist_to_the_curl(rectangle):
+    """The rectangle's flat state buckles into a twist, which turns into the curl near 1.019
+    (a symmetric state, kept to round-off by Newton, to its tolerance's drift by DR): DR
+    locates both events where the FEM does and leaves each on the lift's side, so it ends on
+    the FEM's state, not its mirror image (same energy either way)."""
+    scene = rectangle.updated(**{"dr.membrane_net": "triangles", "fem.element": "P1"})
+    d = list(dr.sweep(scene, [1.1]))[-1]
+    f = list(fem_reference.sweep(scene, [1.1]))[-1]
+    assert d.converged and f.converged and d.info["stable"] and f.info["stable"]
+    assert d.branch == f.branch == "up"
+    assert d.bending_angle == pytest.approx(f.bending_angle, abs=0.1)
+    assert d.energy["total"] == pytest.approx(f.energy["total"], rel=1e-5)
+    assert len(d.info["snaps"]) == len(f.info["snaps"]) == 2
+    for (d0, d1), (f0, f1) in zip(d.info["snaps"], f.info["snaps"]):
+        assert d0 - 2 * LOCATE <= f1 and f0 - 2 * LOCATE <= d1  # the same event, located to LOCATE
+
+
+def test_the_symmetries_dr_restores_are_the_models_own(rectangle):
+    """The mirror where mesh and supports have it, the flip z -> -z, their product; an outline
+    with no mirror keeps the flip only; a restored state keeps its symmetries exactly."""
+    def names(scene):
+        return {g.name for g in dr.build(scene.updated(**{"dr.membrane_net": "triangles"})).symmetries}
+
+    assert names(rectangle) == {"flip", "mirror", "mirror_flip"}
+    assert names(scenes.load("asymmetric_quadrilateral").updated(**{"mesh.divisions": 8})) == {"flip"}
+    built = dr.build(rectangle.updated(**{"dr.membrane_net": "triangles"}))
+    twist = built.model.nodes.copy()
+    twist[:, 2] = 1e-3 * twist[:, 0] * twist[:, 1] + 1e-3  # a twist plus some drift
+    (product,) = [g for g in built.symmetries if g.name == "mirror_flip"]
+    assert kept_by(twist, [product], 40.0) == [product]
+    restored = restore(twist, [product])
+    assert np.abs(product.apply(restored) - restored).max() < 1e-12
+    assert np.abs(restored[:, 2] - 1e-3 * twist[:, 0] * twist[:, 1]).max() < 1e-12
