@@ -36,6 +36,9 @@ that moves most (halved until the energy drops), as the FEM's continuation steps
 PUSHED_TOLERANCE = 1e-2
 """The relaxation from a step off a saddle is to this fraction of ``dr.tolerance``."""
 
+MIN_TOLERANCE = 1e-12
+"""The tightest relaxation a step off a saddle asks for (near the round-off of the stiffest link)."""
+
 MAX_SADDLE_STEPS = 5
 """Steps off saddles at one pre-stretch after which the state is reported 'unstable'."""
 
@@ -559,7 +562,14 @@ def _off_saddles(scene: Scene, dm: DemesModel, res: Result, runs: list[Result], 
         # tighter: the residual of a state a step off a soft saddle is small before its
         # unstable mode has grown (measured on a square at 1.009: at 1e-6 DR stops 0.05 mm off
         # the saddle, at 1e-8 on the curled state 1.27 mm away)
-        res = relax(dm.model, tol=max(PUSHED_TOLERANCE * scene.dr.tolerance, 1e-12), x_start=pushed, **relax_with)
+        tol = max(PUSHED_TOLERANCE * scene.dr.tolerance, MIN_TOLERANCE)
+        res = relax(dm.model, tol=tol, x_start=pushed, **relax_with)
+        # off a weak saddle the pushed state's residual can already be below the tolerance:
+        # relax on, tighter, until the relaxation has moved by more than the push
+        while (res.converged and tol > MIN_TOLERANCE
+               and largest_move(res.x, pushed) < largest_move(pushed, saddle)):
+            tol = max(PUSHED_TOLERANCE * tol, MIN_TOLERANCE)
+            res = relax(dm.model, tol=tol, x_start=res.x, **relax_with)
         runs.append(res)
         if not res.converged:
             runs[-1] = replace(res, info={**res.info, "saddle_steps": steps})
