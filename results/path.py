@@ -1,5 +1,5 @@
-"""The rules of the pre-stretch path, defined once (the FEM's continuation follows them;
-docs/path.md says where DR stands).
+"""The rules of the pre-stretch path, defined once: the FEM's continuation and DR's path follow
+them (docs/path.md).
 
 The path starts from the flat state at lambda = 1, an equilibrium that loses stability at the
 buckling pre-stretch. A state whose lowest mode has a negative stiffness is a saddle: it is
