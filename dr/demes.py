@@ -452,6 +452,7 @@ def _follow_path(scene: Scene, dm: DemesModel, x_start: np.ndarray, start: float
     step, largest = st.prestretch_step, max(st.prestretch_step_max, st.prestretch_step)
     reached, current = start, stop
     side = scene.outline.side_length
+    drifting: set[str] = set()  # symmetries DR's stable states do not keep on this model
     while True:
         lam = _ramp(reached, stop, step)[0]
         dm.model.scale_membrane_rest_lengths(current / lam)
@@ -463,13 +464,24 @@ def _follow_path(scene: Scene, dm: DemesModel, x_start: np.ndarray, start: float
         res = relax(dm.model, tol=st.tolerance, x_start=x_start, progress=progress and last, **relax_with)
         runs.append(res)
         on_plane = planar(x_start, dm.model.nodes, side)
-        kept = kept_by(x_start, dm.symmetries, side)
-        broke = res.converged and len(kept_by(res.x, kept, side)) < len(kept)
-        if broke:
+        kept = [g for g in kept_by(x_start, dm.symmetries, side) if g.name not in drifting]
+        broken = [g for g in kept if g not in kept_by(res.x, kept, side)] if res.converged else []
+        mode = None
+        if broken and step < 2 * LOCATE:
             # the state fell off a symmetric one (dr.symmetry), to a side round-off and drift
-            # picked: leave the symmetric state instead along its lowest mode, on the lift's side
-            res = replace(res, x=restore(x_start, kept, dm.model.fixed))
-        mode = _lowest_mode(dm, res, relax_with) if res.converged else None
+            # picked: leave the symmetric state instead along its lowest mode, on the lift's
+            # side; where that state is stable, DR only drifts off it on this model (a soft
+            # clustered net does, at every step): that symmetry is not followed further
+            symmetric = replace(res, x=restore(x_start, kept, dm.model.fixed))
+            mode = _lowest_mode(dm, symmetric, relax_with)
+            if mode.eigenvalue < 0.0:
+                res = symmetric
+            else:
+                drifting.update(g.name for g in broken)
+                broken, mode = [], None
+        broke = bool(broken)
+        if mode is None and res.converged:
+            mode = _lowest_mode(dm, res, relax_with)
         if (mode is not None and lam > reached and step >= 2 * LOCATE
                 and (broke or stability.is_saddle(mode, dm.neutral))):
             # the branch lost its stability within this step: locate where, so that it is left
