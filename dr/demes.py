@@ -25,7 +25,8 @@ from .net import Net, build_net
 from . import stability
 from .relax import relax
 from .symmetry import Symmetry, kept_by, model_symmetries, restore, restore_mode
-from results.path import AFTER_EVENT, LOCATE, jumped, largest_move, neutral_stiffness, planar, side_of_mode
+from results.path import (AFTER_EVENT, LOCATE, jumped, jumps_message, largest_move, neutral_stiffness, planar,
+                          side_of_mode)
 from .triangles import AREA as TRI_AREA, energy as triangle_energy, DIRECTIONS as TRI_DIRECTIONS, LAM as TRI_LAM, LAW as TRI_LAW, LINEAR as TRI_LINEAR
 
 
@@ -416,7 +417,7 @@ def _path_message(message: str, runs: PathRuns, *, requested: float) -> str:
     if len(runs.path) > 1:
         message += f" (pre-stretch step {len(runs.path)}; {runs.iterations} iterations in all)"
     if runs.snaps:
-        message += "; jumped at " + ", ".join(f"lambda = {a:.4f} -> {b:.4f}" for a, b in runs.snaps) + " (where the path left its branch)"
+        message += "; " + jumps_message(runs.snaps)
     if reached < requested:
         message += f"; the requested lambda = {requested:.3f} was not reached"
     return message
@@ -496,14 +497,14 @@ def _follow_path(scene: Scene, dm: DemesModel, x_start: np.ndarray, start: float
         if not res.converged:
             return levels
         move = largest_move(res.x, x_start)
+        jump = lam > reached and jumped(move, lam - reached, levels.rate, side)
         event = False
         if lam <= reached:  # a state relaxed at its own pre-stretch: no path, no rate
             pass
-        elif jumped(move, lam - reached, levels.rate, side) and step >= 2 * LOCATE and not res.info.get("saddle_steps"):
+        elif jump and step >= 2 * LOCATE and not res.info.get("saddle_steps"):
             step *= 0.5  # cut the step until the jump is located
             continue
-        elif (on_plane and not planar(res.x, dm.model.nodes, side)) or res.info.get("saddle_steps") or jumped(
-                move, lam - reached, levels.rate, side):
+        elif (on_plane and not planar(res.x, dm.model.nodes, side)) or res.info.get("saddle_steps") or jump:
             levels.snaps.append((reached, lam))  # left the flat state, a saddle or a branch's end
             event = True
         else:
@@ -538,8 +539,9 @@ def _off_saddles(scene: Scene, dm: DemesModel, res: Result, runs: list[Result], 
     """A stable equilibrium from the converged state ``res``: while its lowest
     mode (:func:`dr.stability.lowest_mode`) has a negative stiffness, step along it, apex to
     the side the scene's perturbation asks for, and relax again (each relaxation appended to
-    ``runs``); ``mode``: the lowest mode of ``res``; ``unstable``: ``res`` is known to be unstable (a relaxation fell off it), so any
-    negative stiffness, even within the neutral band, is stepped along. The state returned, which is also put as ``runs``' last entry, carries
+    ``runs``); ``mode``: the lowest mode of ``res``; ``unstable``: ``res`` is known to be
+    unstable (a relaxation fell off it), so any negative stiffness, even within the neutral
+    band, is stepped along. The state returned, which is also put as ``runs``' last entry, carries
     ``info['saddle_steps']``, ``info['lowest_eigenvalue']`` and ``info['stable']`` (None where
     the lowest mode was not found); a state that stays a saddle has the status 'unstable'."""
     apex = dm.frame_nodes[scene.outline.nearest_to_apex(dm.frame_s)]

@@ -151,7 +151,8 @@ def relax(
     unresisted(itg.start(st, P, fm, cfg.half_safety), "after the first step")
     # measured after the first step, as every energy the divergence check compares with it
     stops = _Stops(contact=contact, final_checks=final_checks, e_start=potential_energy(X, P, model.loads),
-                   energy_floor=cfg.force_floor * cfg.runaway, loads=model.loads, mass_safety=mass_safety, max_iterations=max_iterations, chunk=chunk, tol=tol)
+                   energy_floor=cfg.force_floor * cfg.runaway, loads=model.loads, mass_safety=mass_safety,
+                   max_iterations=max_iterations, chunk=chunk, tol=tol)
     run = _run_chunks(st, P, fm, cfg, stops, progress=progress)
     info = {"ke_peaks": run.peaks, "mass_safety": mass_safety, "masses": built.kind, "damping": damping,
             "frame_mass_nodes": int(fm.nodes.size)}

@@ -8,7 +8,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from results import ENERGY_KEYS, Result
-from results.path import neutral_stiffness
+from results.path import jumps_message, neutral_stiffness
 from scenes import Scene
 
 from .model import DemesProblem, Evaluation
@@ -158,8 +158,7 @@ def _status_and_message(scene: Scene, out: Outcome, requested: float, residual: 
         message += (f"; the {scene.membrane.law} film is in compression over {100 * compressed:.1f} % of its "
                     "area: it would wrinkle, which this membrane model does not represent")
     if out.snaps:
-        message += "; jumped at " + ", ".join(
-            f"lambda = {a:.4f} -> {b:.4f}" for a, b in out.snaps) + " (where the path left its branch)"
+        message += "; " + jumps_message(out.snaps)
     if lam < requested - 1e-12:
         message += f"; the requested lambda = {requested:.3f} was not reached"
     return status, converged, message

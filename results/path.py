@@ -86,6 +86,14 @@ def largest_move(x: np.ndarray, x_before: np.ndarray) -> float:
     return float(np.linalg.norm(np.asarray(x) - np.asarray(x_before), axis=1).max())
 
 
+def jumps_message(snaps: list[tuple[float, float]]) -> str:
+    """The clause of a state's message that names its located jumps (``info['snaps']``: last
+    pre-stretch on the old branch, first on the new one), '' for none."""
+    if not snaps:
+        return ""
+    return "jumped at " + ", ".join(f"lambda = {a:.4f} -> {b:.4f}" for a, b in snaps) + " (where the path left its branch)"
+
+
 def jumped(move: float, step: float, rate: float | None, side_length: float) -> bool:
     """Whether a step of ``step`` in pre-stretch whose state moved ``move`` mm left the branch
     the last steps followed at ``rate`` mm per unit pre-stretch (None: no rate yet, e.g. the
