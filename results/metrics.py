@@ -29,14 +29,16 @@ def frame_at(x: np.ndarray, s: np.ndarray, length: float, s_query: np.ndarray) -
 
 def bending_angle(x: np.ndarray, s: np.ndarray, length: float, s_apex: float, size: float,
                   samples: int = 256) -> float:
-    """Angle (deg) of the line base midpoint -> apex above the flat plane, in the symmetry plane,
+    """Angle (deg) of the line base midpoint -> apex above the flat plane, seen along the base,
     counted continuously from the flat state.
 
-    The symmetry plane is x = 0 (the base lies on the x axis, the flat frame in z = 0, the apex
-    at y > 0), so the angle is atan2(dz, dy) modulo 360: 0 when flat, 90 when the apex is
-    straight above the base, 180 curled over flat behind it, 281 for a curl past that (not
-    -79). Which turn is meant is read off the state itself: the midpoint of the two sides at
-    equal arc length from the base midpoint runs from the base to the apex, its direction
+    The base lies on the x axis, the flat frame in z = 0, the apex at y > 0, so the angle is
+    atan2(dz, dy) modulo 360 (in the symmetry plane x = 0 of a mirror-symmetric outline): 0
+    when flat, 90 when the apex is straight above the base, 180 curled over flat behind it,
+    281 for a curl past that (not -79). Which turn is meant is read off the state itself: the
+    midpoint of the two sides at equal fractions of their arc lengths from the base midpoint
+    to the apex (equal arc lengths on a mirror-symmetric outline) runs from the base to the
+    apex, its direction
     turns continuously from the flat base (unwrapped along it), and the angle is the turn of
     atan2 nearest the mean of that direction (a chord is a mean of the directions along it).
     Steps shorter than a tenth of the median step (along the held base the midline stands
@@ -46,8 +48,8 @@ def bending_angle(x: np.ndarray, s: np.ndarray, length: float, s_apex: float, si
     reads as a half turn (it read 390 deg for a 30 deg curl at 6 divisions, and 410 for 50 at 4,
     where the coarse base dipped 0.3 mm and rose 0.06 mm while stepping back).
     """
-    t = np.linspace(0.0, s_apex, samples)
-    mid = 0.5 * (frame_at(x, s, length, t) + frame_at(x, s, length, -t))
+    t = np.linspace(0.0, 1.0, samples)
+    mid = 0.5 * (frame_at(x, s, length, t * s_apex) + frame_at(x, s, length, -t * (length - s_apex)))
     chord = mid[-1] - mid[0]
     theta = float(np.degrees(np.arctan2(chord[2], chord[1])))
     step = np.diff(mid[:, 1:], axis=0)
@@ -81,6 +83,28 @@ WHOLE_TURN = 360.0
 """deg: bending angles are read in (-WHOLE_TURN, WHOLE_TURN). The line base -> apex of a frame of
 constant curvature has turned half the frame's turn; at a whole turn the frame has come round
 onto its own base. A reading beyond counts the turns of a path, not where the apex is."""
+
+HALF_TURN = 180.0
+"""deg: past half a turn the apex has gone over the base, behind it, to the other side of the flat
+plane (below it on the up branch)."""
+
+
+def past_half_turn(theta: float) -> str | None:
+    """The words for a curl past half a turn (:data:`HALF_TURN` < |theta| < :data:`WHOLE_TURN`,
+    deg, continuous from flat), None for any other angle: a reader who sees 253 deg is told
+    where the apex is.
+
+    >>> past_half_turn(253.24)
+    'curled past half a turn: the apex is behind the base and below the flat plane (253.2 deg = 180 + 73.2)'
+    >>> past_half_turn(-200.0), past_half_turn(179.0)
+    ('curled past half a turn: the apex is behind the base and above the flat plane (-200.0 deg = -180 - 20.0)', None)
+    """
+    if not (np.isfinite(theta) and HALF_TURN < abs(theta) < WHOLE_TURN):
+        return None
+    side, half = ("below", "180 +") if theta > 0 else ("above", "-180 -")
+    return (f"curled past half a turn: the apex is behind the base and {side} the flat plane "
+            f"({theta:.1f} deg = {half} {abs(theta) - HALF_TURN:.1f})")
+
 
 BRANCHES = ("up", "down", "flat", "twisted")
 """The branch names: the side of the flat plane the apex went to from the flat state; the flat

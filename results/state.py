@@ -10,6 +10,7 @@ import numpy as np
 
 from . import metrics
 from .crossing import film_crossing, frame_crossing
+from .path import jumps_message
 from .vtk import CellBlock, write_vtu
 
 ENERGY_KEYS = ("membrane", "frame_bending", "frame_torsion", "frame_axial", "total")
@@ -52,6 +53,13 @@ SUMMARY_COLUMNS = (
     ("message", "-"),
 )
 """Columns of a state's one-line summary (CSV tables), with units."""
+
+
+def lower_state_words(lower: dict[str, Any]) -> str:
+    """The clause that names a state of lower energy found from another start
+    (``info['lower_state']``)."""
+    return (f"a stable state of lower energy was found from {lower['start']}: "
+            f"{lower['bending_angle']:.2f} deg ({lower['branch']}), E = {lower['energy_total']:.6g} N mm")
 
 
 @dataclass
@@ -216,10 +224,9 @@ class Result:
         reason = metrics.unreadable_angle(theta, self.info.get("crossing"))
         side = metrics.branch(theta, self._lift())
         self.info["branch"], self.info["angle_unreadable"] = side, reason
-        lift = self.scene.perturbation.amplitude
-        against = f"; the apex went {side}, against the scene's lift"
-        if lift and side in ("up", "down") and side != ("up" if lift > 0 else "down") and against not in self.message:
-            self.message += f"{against} (perturbation.amplitude = {lift:g} mm)"
+        for clause in self._shape_remarks(theta, side, reason):
+            if clause not in self.message:  # a copy of a state read before
+                self.message += f"; {clause}"
         if reason is None:
             return
         if self.converged:
@@ -228,6 +235,42 @@ class Result:
         if "the bending angle cannot be read" not in self.message:  # a copy of a state read before
             self.message += (f"; the bending angle cannot be read: {words or metrics.UNREADABLE[reason]}"
                              + (f", reading {theta:.1f} deg" if np.isfinite(theta) else ""))
+
+    def _shape_remarks(self, theta: float, side: str, reason: str | None) -> list[str]:
+        """The clauses on the shape a reader needs beside its angle: an apex against the scene's
+        lift, a curl past half a turn (:func:`results.metrics.past_half_turn`)."""
+        out = []
+        lift = self.scene.perturbation.amplitude
+        if lift and side in ("up", "down") and side != ("up" if lift > 0 else "down"):
+            out.append(f"the apex went {side}, against the scene's lift (perturbation.amplitude = {lift:g} mm)")
+        half = metrics.past_half_turn(theta) if reason is None else None
+        if half:
+            out.append(half)
+        return out
+
+    @property
+    def remarks(self) -> list[str]:
+        """What a reader of this state should know beside its numbers, in words (each also a
+        clause of :attr:`message`): the jumps its path located (``info['snaps']``), an apex
+        against the scene's lift, a curl past half a turn, and a state of lower energy found
+        from another start (``info['lower_state']``, see :meth:`note_lower_state`)."""
+        out = [jumps_message(self.info["snaps"])] if self.info.get("snaps") else []
+        if self.scene is not None and self.frame_nodes is not None:
+            theta = self._continuous_angle()
+            reason = metrics.unreadable_angle(theta, self.info.get("crossing"))
+            out += self._shape_remarks(theta, metrics.branch(theta, self._lift()), reason)
+        lower = self.info.get("lower_state")
+        if lower:
+            out.append(lower_state_words(lower))
+        return out
+
+    def note_lower_state(self, other: "Result", start: str) -> None:
+        """Record ``other``, a stable state of lower energy at this pre-stretch found from another
+        ``start`` (words, e.g. 'the pre-stretch applied at once'), in ``info['lower_state']``
+        (its start, bending angle, branch, total energy) and as a clause of the message."""
+        self.info["lower_state"] = {"start": start, "bending_angle": other.bending_angle, "branch": other.branch,
+                                    "energy_total": other.energy["total"]}
+        self.message += "; " + lower_state_words(self.info["lower_state"])
 
     @property
     def mid_height_width(self) -> float:

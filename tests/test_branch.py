@@ -67,6 +67,20 @@ def test_a_curl_up_reads_its_angle_and_its_mirror_the_negative(turn):
     assert row["branch"] == "down" and row["angle_unreadable"] == "" and row["contact_checked"] is False
 
 
+@pytest.mark.parametrize("radius, turn", [(20.0, 40.0), (8.0, 150.0), (6.0, 250.0)])
+def test_an_outline_without_mirror_symmetry_reads_its_apex_angle(radius, turn):
+    """On a quadrilateral whose apex is not above the base midpoint (the two sides from the base
+    to the apex are 67 and 93 mm long), curls up to past half a turn read the closed-form angle of the
+    line base midpoint -> apex."""
+    scene = scenes.load("asymmetric_quadrilateral")
+    o = scene.outline
+    assert abs(2 * o.apex_arc_length() - o.length) > 10.0
+    res, closed_form = shaped_state(scene, curl_profile(3.0, radius, np.radians(turn)))
+    assert res.info["crossing"] is None and res.branch == "up"
+    assert res.bending_angle % 360.0 == pytest.approx(closed_form % 360.0, abs=1e-6)
+    assert ("curled past half a turn" in res.message) == (res.bending_angle > 180.0)
+
+
 def test_a_flat_state_is_on_the_flat_branch():
     flat, closed_form = shaped_state(SCENE, lambda Y: (Y, 0.0 * Y))
     assert closed_form == 0.0 and flat.bending_angle == pytest.approx(0.0, abs=1e-9)
@@ -91,6 +105,10 @@ def test_a_film_through_itself_is_unreadable():
     assert clear.info["crossing"] is None and clear.converged
     assert clear.bending_angle % 360.0 == pytest.approx(closed_form % 360.0, abs=1.0)
     assert 180.0 < clear.bending_angle < 360.0
+    # past half a turn the apex is behind the base, below the plane: named, not a bare number
+    half = "curled past half a turn: the apex is behind the base and below the flat plane"
+    assert half in clear.message and any(half in r for r in clear.remarks)
+    assert "curled past half a turn" not in res.message  # an angle not read is not described
 
 
 def test_a_frame_collapsed_through_its_base_is_unreadable():

@@ -17,7 +17,7 @@ from scenes.scene import prestretch_list
 
 from .executor import DEFAULT_WORKERS
 from .grid import DEFAULT_MAX_POINTS
-from .sweep import contact_note, print_table, run_sweep, stop_notes
+from .sweep import contact_note, print_table, run_sweep, state_notes
 
 
 def _parse_value(text: str) -> Any:
@@ -94,7 +94,7 @@ def _run_solver(args: argparse.Namespace, solver: str) -> int:
         label = f"fem_{scene.frame.model}_r{refinement}"
     results = run_sweep(states, lams, out, label, progress=not args.no_progress)
     title = f"{scene.name}: {solver.upper()}, frame model '{scene.frame.model}'"
-    text = print_table(results, title) + contact_note(results) + stop_notes(results, lams)
+    text = print_table(results, title) + contact_note(results) + state_notes(results, lams)
     atomic_write_text(out / f"{label}.txt", text + "\n")
     print(f"wrote {out / (label + '.csv')}, {out / (label + '.pvd')} and {len(results)} .vtu states")
     if results:
@@ -114,7 +114,7 @@ def _render(results: Sequence[Result], path: Path, title: str) -> None:
 
 def cmd_solve(args: argparse.Namespace) -> int:
     """The main job: a sweep on nested meshes, each state with its discretisation error."""
-    from . import mesh_error
+    from . import mesh_error, other_starts
     from .tables import MESH_ERROR_TABLE
 
     scene = load_scene(args)
@@ -135,6 +135,8 @@ def cmd_solve(args: argparse.Namespace) -> int:
     def states() -> Iterator[Result]:
         for me in found:
             errors[id(me.state)] = me
+            if args.other_starts:
+                other_starts.search(me.state)
             yield me.state
 
     def columns(res: Result) -> dict[str, Any]:
@@ -145,7 +147,7 @@ def cmd_solve(args: argparse.Namespace) -> int:
                         units=mesh_error.UNITS)
     title = (f"{scene.name}: {what}, frame model '{scene.frame.model}', mesh.divisions "
              f"{' '.join(map(str, levels))} (states on the finest; theta* and +- by Richardson over them)")
-    text = print_table(results, title, MESH_ERROR_TABLE, columns) + contact_note(results) + stop_notes(results, lams)
+    text = print_table(results, title, MESH_ERROR_TABLE, columns) + contact_note(results) + state_notes(results, lams)
     atomic_write_text(out / f"{label}.txt", text + "\n")
     print(f"wrote {out / (label + '.csv')}, {out / (label + '.pvd')} and {len(results)} .vtu states")
     if results:
@@ -327,6 +329,10 @@ def build_parser() -> argparse.ArgumentParser:
                    help="mesh.divisions of the nested meshes, each twice the one before (default: FEM 20 40 80, "
                         "or d 2d 4d after --set mesh.divisions=d; DR the scene's mesh.divisions and two "
                         "halvings of it); one value: no error estimate")
+    p.add_argument("--other-starts", action="store_true",
+                   help="also relax each finest state's mirror image and the pre-stretch applied at once from the "
+                        "lift (about three times the solver's time); a stable state of lower energy is named "
+                        "under the table")
     p.set_defaults(func=cmd_solve)
     p = sub.add_parser("fem", help="solve a scene with the scikit-fem reference")
     _common(p, "out/fem")

@@ -76,10 +76,13 @@ def contact_note(results: Sequence[Result]) -> str:
     return "\n" + line
 
 
-def stop_notes(results: Sequence[Result], requested: Sequence[float]) -> str:
-    """Why each stopped state stopped, and the requested pre-stretches the path did not reach;
-    printed under the table and returned."""
-    lines = [f"  {r.status}: {r.message}" for r in results if not r.converged]
+def state_notes(results: Sequence[Result], requested: Sequence[float]) -> str:
+    """What a reader of the table needs beside its numbers: each converged state's remarks
+    (:attr:`results.Result.remarks`: jumps, an apex against the lift, a curl past half a turn,
+    a lower state found), why each stopped state stopped, and the requested pre-stretches the
+    path did not reach; printed under the table and returned."""
+    lines = [f"  {r.status}: {r.message}" if not r.converged else f"  {level_label(r.prestretch)}: " + "; ".join(r.remarks)
+             for r in results if not r.converged or r.remarks]
     missed = not_reached(requested, [r.prestretch for r in results])
     if missed:
         lines.append("  not reached (the path stopped before them): " + " ".join(level_label(v) for v in missed))
