@@ -26,7 +26,7 @@ from . import stability
 from .relax import relax
 from .symmetry import Symmetry, kept_by, model_symmetries, restore, restore_mode
 from results.path import (AFTER_EVENT, LOCATE, jumped, jumps_message, largest_move, neutral_stiffness, planar,
-                          side_of_mode)
+                          side_of_mode, turned)
 from .triangles import AREA as TRI_AREA, energy as triangle_energy, DIRECTIONS as TRI_DIRECTIONS, LAM as TRI_LAM, LAW as TRI_LAW, LINEAR as TRI_LINEAR
 
 
@@ -275,7 +275,8 @@ def asymmetry(x: np.ndarray, mirror: np.ndarray) -> float:
 
 
 def solve(scene: Scene, prestretch: float | None = None, x_start: np.ndarray | None = None,
-          progress: bool = False, from_prestretch: float = 1.0, path_rate: float | None = None) -> Result:
+          progress: bool = False, from_prestretch: float = 1.0, path_rate: float | None = None,
+          path_move: np.ndarray | None = None) -> Result:
     """Equilibrium of ``scene`` by dynamic relaxation (the paper's model).
 
     The pre-stretch is raised from ``from_prestretch`` to ``prestretch`` in steps of
@@ -304,11 +305,14 @@ def solve(scene: Scene, prestretch: float | None = None, x_start: np.ndarray | N
     path_rate
         The path's rate at the start state (``info['path_rate']`` of the state it was solved
         as), mm per unit pre-stretch, so that a jump on the first step is found too.
+    path_move
+        The path's last step's move at the start state (n, 3) mm (``info['path_move']``), so
+        that a first step turning off the branch is found too (:func:`results.path.turned`).
     """
     lam = scene.prestretch if prestretch is None else float(prestretch)
     dm = build(scene, lam)
     runs = _relaxations(scene, dm, lam, x_start=x_start, from_prestretch=from_prestretch,
-                        progress=progress, path_rate=path_rate)
+                        progress=progress, path_rate=path_rate, path_move=path_move)
     return _path_result(scene, dm, runs, requested=lam)
 
 
@@ -322,6 +326,7 @@ class PathRuns:
     coarse_failed: Result | None  # the fine mesh's relaxation from it, where it did not converge
     snaps: list[tuple[float, float]]  # jumps located on the way: (last level on the branch, first off it)
     rate: float | None  # the path's rate at the end, mm per unit pre-stretch (results.path.jumped)
+    last_move: np.ndarray | None  # the path's last step's move at the end, mm (results.path.turned)
 
     @property
     def iterations(self) -> int:
@@ -351,7 +356,8 @@ def _relax_settings(scene: Scene, dm: DemesModel) -> dict:
 
 
 def _relaxations(scene: Scene, dm: DemesModel, lam: float, *, x_start: np.ndarray | None,
-                 from_prestretch: float, progress: bool, path_rate: float | None) -> PathRuns:
+                 from_prestretch: float, progress: bool, path_rate: float | None,
+                 path_move: np.ndarray | None) -> PathRuns:
     """Relax ``dm`` to pre-stretch ``lam`` as :func:`solve` says: from refinement 0's state, or
     along the pre-stretch path."""
     st = scene.dr
@@ -367,7 +373,7 @@ def _relaxations(scene: Scene, dm: DemesModel, lam: float, *, x_start: np.ndarra
         x_start = dm.model.nodes.copy()
     settings = _relax_settings(scene, dm)
     runs: list[Result] = []
-    levels, coarse_failed = PathLevels([lam], [], path_rate), None
+    levels, coarse_failed = PathLevels([lam], [], path_rate, path_move), None
     if coarse is not None:
         runs.append(coarse)
         if coarse.converged:
@@ -376,8 +382,8 @@ def _relaxations(scene: Scene, dm: DemesModel, lam: float, *, x_start: np.ndarra
         coarse_failed = None if runs[-1].converged else runs[-1]
     if coarse is None or coarse_failed is not None:
         levels = _follow_path(scene, dm, x_start, from_prestretch, lam, runs, relax_with=settings,
-                              progress=progress, rate=path_rate)
-    return PathRuns(runs, levels.tried, coarse, coarse_failed, levels.snaps, levels.rate)
+                              progress=progress, trend=levels)
+    return PathRuns(runs, levels.tried, coarse, coarse_failed, levels.snaps, levels.rate, levels.last_move)
 
 
 def _path_result(scene: Scene, dm: DemesModel, runs: PathRuns, *, requested: float) -> Result:
@@ -440,16 +446,18 @@ def _model_info(scene: Scene, dm: DemesModel, runs: PathRuns) -> dict:
         reached_prestretch=runs.path[-1],
         snaps=runs.snaps,
         path_rate=runs.rate,
+        path_move=runs.last_move,
     )
 
 
 def _follow_path(scene: Scene, dm: DemesModel, x_start: np.ndarray, start: float, stop: float,
-                 runs: list[Result], *, relax_with: dict, progress: bool, rate: float | None) -> PathLevels:
+                 runs: list[Result], *, relax_with: dict, progress: bool, trend: PathLevels) -> PathLevels:
     """Relax ``dm`` along the pre-stretch path from ``x_start`` at ``start`` to ``stop``
-    (see :func:`solve`), appending every relaxation to ``runs``; ``rate``: the path's rate
-    (mm per unit pre-stretch) at ``start`` for the jump test (:func:`results.path.jumped`)."""
+    (see :func:`solve`), appending every relaxation to ``runs``; ``trend``: the path's rate
+    and last move at ``start`` for the jump tests (:func:`results.path.jumped`,
+    :func:`results.path.turned`)."""
     st = scene.dr
-    levels = PathLevels([], [], rate)
+    levels = PathLevels([], [], trend.rate, trend.last_move)
     step, largest = st.prestretch_step, max(st.prestretch_step_max, st.prestretch_step)
     reached, current = start, stop
     side = scene.outline.side_length
@@ -497,7 +505,8 @@ def _follow_path(scene: Scene, dm: DemesModel, x_start: np.ndarray, start: float
         if not res.converged:
             return levels
         move = largest_move(res.x, x_start)
-        jump = lam > reached and jumped(move, lam - reached, levels.rate, side)
+        jump = lam > reached and (jumped(move, lam - reached, levels.rate, side)
+                                  or turned(res.x - x_start, levels.last_move, side))
         event = False
         if lam <= reached:  # a state relaxed at its own pre-stretch: no path, no rate
             pass
@@ -509,6 +518,8 @@ def _follow_path(scene: Scene, dm: DemesModel, x_start: np.ndarray, start: float
             event = True
         else:
             levels.rate = move / (lam - reached)
+        if lam > reached:
+            levels.last_move = None if event else res.x - x_start
         if last:
             return levels
         x_start, reached = res.x, lam
@@ -521,12 +532,14 @@ def _follow_path(scene: Scene, dm: DemesModel, x_start: np.ndarray, start: float
 @dataclass
 class PathLevels:
     """The pre-stretch levels a DR path tried (the last one the state's), the jumps it located
-    (last level on the old branch, first on the new one) and its rate at the end (mm per unit
-    pre-stretch; None right after a jump)."""
+    (last level on the old branch, first on the new one), its rate at the end (mm per unit
+    pre-stretch; None right after a jump) and its last step's move on the branch (n, 3) mm
+    (None right after an event; :func:`results.path.turned`)."""
 
     tried: list[float]
     snaps: list[tuple[float, float]]
     rate: float | None
+    last_move: np.ndarray | None = None
 
 
 def _lowest_mode(dm: DemesModel, res: Result, relax_with: dict) -> stability.Mode:
@@ -622,14 +635,17 @@ def sweep(scene: Scene, prestretches: Sequence[float], progress: bool = False,
     state of the same scene (e.g. the last one an interrupted sweep finished), is where the
     sweep continues from.
     """
-    x_prev, lam_prev, theta, rate = None, 1.0, None, None
+    x_prev, lam_prev, theta, rate, move = None, 1.0, None, None, None
     if start is not None and start.converged:
-        x_prev, lam_prev, theta, rate = start.x, start.prestretch, start.bending_angle, start.info.get("path_rate")
+        x_prev, lam_prev, theta = start.x, start.prestretch, start.bending_angle
+        rate, move = start.info.get("path_rate"), start.info.get("path_move")
     for lam in sorted(set(float(v) for v in prestretches)):
-        res = solve(scene, lam, x_start=x_prev, progress=progress, from_prestretch=lam_prev, path_rate=rate)
+        res = solve(scene, lam, x_start=x_prev, progress=progress, from_prestretch=lam_prev, path_rate=rate,
+                    path_move=move)
         if theta is not None:
             res.continue_from(theta)  # the angle is continued along the sweep
         yield res
         if not res.converged:
             return
-        x_prev, lam_prev, theta, rate = res.x, lam, res.bending_angle, res.info.get("path_rate")
+        x_prev, lam_prev, theta = res.x, lam, res.bending_angle
+        rate, move = res.info.get("path_rate"), res.info.get("path_move")

@@ -23,7 +23,7 @@ import numpy as np
 
 from results import Result
 from results.crossing import Crossing, film_crossing
-from results.path import AFTER_EVENT, LOCATE, jumped, largest_move, neutral_stiffness, planar, side_of_mode
+from results.path import AFTER_EVENT, LOCATE, jumped, largest_move, neutral_stiffness, planar, side_of_mode, turned
 from scenes import Scene, SceneError
 from scenes.scene import integer_at_least, prestretch_list
 
@@ -59,6 +59,7 @@ class Continuation:
         self.side = self.scene.outline.side_length
         self.flat = problem.initial_guess(lift=False).reshape(-1, 3)
         self.rate: float | None = None  # largest nodal move per unit pre-stretch on the last step (mm)
+        self.last_move: np.ndarray | None = None  # the last step's move on the branch (results.path.turned)
         self.neutral = neutral_stiffness(self.scene)
         self.apex = problem.mesh.frame_nodes[self.scene.outline.nearest_to_apex(problem.mesh.frame_s)]
         self.lift = problem.initial_guess() - problem.initial_guess(lift=False)
@@ -223,6 +224,7 @@ class Continuation:
             records.append(StepRecord(target, nr.iterations, nr.history, pushes))
             if nr.converged and self.contact(nr.y) is None:
                 self.previous, self.lam, self.y = (self.lam, self.y), target, nr.y
+                self.last_move = None
         while self.lam < target - 1e-12:
             if self.deadline is not None and time.perf_counter() > self.deadline:
                 return self._out_of_time(records)
@@ -266,16 +268,18 @@ class Continuation:
             move = largest_move(nr.y.reshape(-1, 3), self.y.reshape(-1, 3))
             if on_plane and not planar(nr.y.reshape(-1, 3), self.flat, self.side):
                 self.snaps.append((self.lam, lam))  # left the flat state
-                self.rate, self.step = None, AFTER_EVENT
-            elif jumped(move, lam - self.lam, self.rate, self.side):
+                self.rate, self.last_move, self.step = None, None, AFTER_EVENT
+            elif (pushes or jumped(move, lam - self.lam, self.rate, self.side)
+                  or turned(nr.y - self.y, self.last_move, self.side)):
+                # the branch lost its stability within this step, or the state left it
                 if self.step >= 2 * LOCATE:
-                    self.step *= 0.5  # cut the step until the jump is located
+                    self.step *= 0.5  # cut the step until the event is located
                     continue
                 if (self.lam, lam) not in self.snaps:
                     self.snaps.append((self.lam, lam))
-                self.rate, self.step = None, AFTER_EVENT
+                self.rate, self.last_move, self.step = None, None, AFTER_EVENT
             else:
-                self.rate = move / (lam - self.lam)
+                self.rate, self.last_move = move / (lam - self.lam), nr.y - self.y
             found = self.contact(nr.y)
             if found is not None:
                 free, bad = self._bisect_contact(lam)

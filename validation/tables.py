@@ -95,6 +95,7 @@ MESH_ERROR_TABLE = (
     ("prestretch", "lambda", "level"),
     ("bending_angle", "theta[deg]", ".2f"),
     ("branch", "branch", ""),
+    ("stable", "stable", ""),
     ("bending_angle_extrapolated", "theta*[deg]", ".2f"),
     ("bending_angle_error", "+-[deg]", ".2g"),
     ("bending_angle_order", "order", ".2f"),
