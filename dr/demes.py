@@ -3,6 +3,7 @@ the FEM's mesh (``dr.membrane_net = "triangles"``); ``solve`` one state, ``sweep
 
 from __future__ import annotations
 
+import time
 from dataclasses import dataclass, replace
 from typing import Iterator, Sequence
 
@@ -309,11 +310,16 @@ def solve(scene: Scene, prestretch: float | None = None, x_start: np.ndarray | N
         The path's last step's move at the start state (n, 3) mm (``info['path_move']``), so
         that a first step turning off the branch is found too (:func:`results.path.turned`).
     """
+    t0 = time.perf_counter()
     lam = scene.prestretch if prestretch is None else float(prestretch)
     dm = build(scene, lam)
     runs = _relaxations(scene, dm, lam, x_start=x_start, from_prestretch=from_prestretch,
                         progress=progress, path_rate=path_rate, path_move=path_move)
-    return _path_result(scene, dm, runs, requested=lam)
+    res = _path_result(scene, dm, runs, requested=lam)
+    # the state's cost as the FEM counts its own: the model, the stability checks and the
+    # steps off saddles included, not only the relaxations (info['relaxation_time'])
+    res.wall_time = time.perf_counter() - t0
+    return res
 
 
 @dataclass(frozen=True)
@@ -445,6 +451,7 @@ def _model_info(scene: Scene, dm: DemesModel, runs: PathRuns) -> dict:
         coarse_iterations=runs.coarse.iterations if runs.coarse is not None else 0,
         reached_prestretch=runs.path[-1],
         snaps=runs.snaps,
+        relaxation_time=runs.wall_time,
         path_rate=runs.rate,
         path_move=runs.last_move,
     )

@@ -70,6 +70,7 @@ def test_bad_command_lines_give_one_line_and_exit_code_2(tmp_path, capsys):
         (["bench", "--fem", "--prestretch", "0.9"], "--prestretch"),
         (["bench", "--spectrum", "--prestretch", "1.1", "1.3"], "give one --prestretch"),
         (["bench", "--spectrum", "--refinement", "3"], "--refinement 0 to 2"),
+        (["bench", "--gallery", "no_such_scene"], "no_such_scene"),
         (["fem", "--refinement", "99", "--prestretch", "1.1"], "fem.refinement"),
         (["solve", "--set", "mesh.divisions=" + "9" * 5000], "mesh.divisions"),
     ]

@@ -284,6 +284,15 @@ def cmd_bench(args: argparse.Namespace) -> int:
                                   grading=args.grading)
         print(json.dumps(fem_rows, indent=1) if args.json else format_table(fem_rows, bench_fem.COLUMNS))
         return 0
+    if args.gallery is not None:
+        from . import bench_gallery
+
+        names = args.gallery or list(bench_gallery.SCENES)
+        for name in names:
+            scenes.load(name)  # a bad name fails here, before any work
+        gallery_rows = bench_gallery.rows(names=names, repeats=args.repeats)
+        print(json.dumps(gallery_rows, indent=1) if args.json else format_table(gallery_rows, bench_gallery.COLUMNS))
+        return 0
     if args.spectrum:
         from . import bench_spectrum
 
@@ -392,12 +401,15 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--fem", action="store_true",
                    help="the FEM reference: one state per element and level from flat (DOFs, Newton its, factorisations, time)")
     p.add_argument("--levels", nargs="+", type=int, default=[0, 1, 2], help="with --fem: refinement levels")
+    p.add_argument("--gallery", nargs="*", default=None, metavar="SCENE",
+                   help="gallery scenes (default wide_rectangle asymmetric_quadrilateral): DR triangles and the FEM "
+                        "P1 on one mesh along the gallery's path, time, iterations and cost per iteration")
     p.add_argument("--spectrum", action="store_true",
                    help="the ends of K v = w M v at DR's state on the strip DEMES, per kind of masses, all DOFs "
                         "and frame held (what sets DR's steps)")
     p.add_argument("--grading", type=float, default=1.0,
                    help="with --fem: mesh.grading of the mesh (element size h0 / grading at the frame; 1 uniform)")
-    p.add_argument("--json", action="store_true", help="with --strip, --fem or --spectrum: rows as JSON")
+    p.add_argument("--json", action="store_true", help="with --strip, --fem, --gallery or --spectrum: rows as JSON")
     p.set_defaults(func=cmd_bench)
     return parser
 
