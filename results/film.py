@@ -102,6 +102,9 @@ def family_strains(F: np.ndarray, prestretch: float) -> np.ndarray:
     return prestretch * np.linalg.norm(F @ _M.T, axis=1) - 1.0
 
 
+# a triangle collapsed in a fold has J = 0 (or a round-off below): its thickness and stresses
+# are inf or NaN in the fields a viewer shows, not warnings on the user's console
+@np.errstate(divide="ignore", invalid="ignore")
 def film_fields(F: np.ndarray, film: FilmLaw, strains: np.ndarray | None = None) -> dict[str, np.ndarray]:
     """Per-triangle film fields (names carry the units) at deformation gradients F (t, 3, 2).
 
@@ -112,7 +115,7 @@ def film_fields(F: np.ndarray, film: FilmLaw, strains: np.ndarray | None = None)
     F = np.asarray(F, float)
     C = np.swapaxes(F, 1, 2) @ F
     det = C[:, 0, 0] * C[:, 1, 1] - C[:, 0, 1] ** 2
-    J = np.sqrt(det)
+    J = np.sqrt(np.maximum(det, 0.0))
     lam = film.prestretch
     if film.law == "linear":
         eps = family_strains(F, lam)

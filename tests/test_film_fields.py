@@ -1,6 +1,8 @@
 """The film's per-triangle fields (results.film): closed forms of flat stretched films, the
 solvers' own laws at arbitrary deformations, and both solvers' ParaView output."""
 
+import warnings
+
 import numpy as np
 import pytest
 import pyvista as pv
@@ -229,3 +231,14 @@ def test_an_actuated_film_carries_its_maxwell_pressure(tmp_path, capsys, solver)
     assert cells["maxwell_pressure_MPa"][film_cells].min() > 0
     np.testing.assert_allclose(cells["maxwell_pressure_MPa"][film_cells], EPSILON_0 * EPS_R * (1000.0 / h) ** 2,
                                rtol=1e-9)
+
+
+@pytest.mark.parametrize("law", LAW_IDS)
+def test_a_triangle_collapsed_in_a_fold_has_infinite_thickness_and_no_warning(law):
+    """A fold collapses triangles to a line (F of rank 1, J = 0): the film there is infinitely
+    thick (h / J) for every law, said in the field, not as a numpy warning on the console."""
+    collapsed = np.array([[1.2, 0.6], [0.0, 0.0], [0.0, 0.0]])  # both edges along x
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", RuntimeWarning)
+        f = fields(collapsed, law, 1.2)
+    assert f["thickness_mm"][0] == np.inf
