@@ -278,20 +278,21 @@ def _mass_halves(built, n: int):
     blocks = np.stack([np.stack([a, d, e], -1), np.stack([d, b, f], -1), np.stack([e, f, c], -1)], 1)
     if blocks.size:
         blocks += FLOOR * np.median(np.stack([a, b, c])) * np.eye(3)
-    B = np.linalg.cholesky(blocks)
+    # inverted once: a batched solve per application cost 0.1 ms, a fifth of a Lanczos check
+    B_inv = np.linalg.inv(np.linalg.cholesky(blocks))
 
     def half(u: np.ndarray) -> np.ndarray:
         z = np.zeros_like(u)
         if factor is not None:
             z[dof] = factor.solve(u[dof])
-        z.reshape(n, 3)[nodes] = np.linalg.solve(B, u.reshape(n, 3)[nodes][:, :, None])[:, :, 0]
+        z.reshape(n, 3)[nodes] = np.einsum("kij,kj->ki", B_inv, u.reshape(n, 3)[nodes])
         return z
 
     def half_t(u: np.ndarray) -> np.ndarray:
         z = np.zeros_like(u)
         if factor is not None:
             z[dof] = factor.solve(u[dof], trans="T")
-        z.reshape(n, 3)[nodes] = np.linalg.solve(np.swapaxes(B, 1, 2), u.reshape(n, 3)[nodes][:, :, None])[:, :, 0]
+        z.reshape(n, 3)[nodes] = np.einsum("kji,kj->ki", B_inv, u.reshape(n, 3)[nodes])
         return z
 
     return half, half_t
