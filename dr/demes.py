@@ -511,9 +511,10 @@ def _follow_path(scene: Scene, dm: DemesModel, x_start: np.ndarray, start: float
             continue
         if not res.converged:
             return levels
+        moved = res.x - x_start
         move = largest_move(res.x, x_start)
         jump = lam > reached and (jumped(move, lam - reached, levels.rate, side)
-                                  or turned(res.x - x_start, levels.last_move, side))
+                                  or turned(moved, levels.last_move, side))
         event = False
         if lam <= reached:  # a state relaxed at its own pre-stretch: no path, no rate
             pass
@@ -526,7 +527,7 @@ def _follow_path(scene: Scene, dm: DemesModel, x_start: np.ndarray, start: float
         else:
             levels.rate = move / (lam - reached)
         if lam > reached:
-            levels.last_move = None if event else res.x - x_start
+            levels.last_move = None if event else moved
         if last:
             return levels
         x_start, reached = res.x, lam

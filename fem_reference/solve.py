@@ -265,12 +265,13 @@ class Continuation:
                                f"Newton failed at lambda = {lam:.4f} ({nr.status}, residual "
                                f"{nr.residual:.2e} after {nr.iterations} iterations) even with "
                                f"steps below {MIN_STEP:g}", records)
+            moved = nr.y - self.y
             move = largest_move(nr.y.reshape(-1, 3), self.y.reshape(-1, 3))
             if on_plane and not planar(nr.y.reshape(-1, 3), self.flat, self.side):
                 self.snaps.append((self.lam, lam))  # left the flat state
                 self.rate, self.last_move, self.step = None, None, AFTER_EVENT
             elif (pushes or jumped(move, lam - self.lam, self.rate, self.side)
-                  or turned(nr.y - self.y, self.last_move, self.side)):
+                  or turned(moved, self.last_move, self.side)):
                 # the branch lost its stability within this step, or the state left it
                 if self.step >= 2 * LOCATE:
                     self.step *= 0.5  # cut the step until the event is located
@@ -279,7 +280,7 @@ class Continuation:
                     self.snaps.append((self.lam, lam))
                 self.rate, self.last_move, self.step = None, None, AFTER_EVENT
             else:
-                self.rate, self.last_move = move / (lam - self.lam), nr.y - self.y
+                self.rate, self.last_move = move / (lam - self.lam), moved
             found = self.contact(nr.y)
             if found is not None:
                 free, bad = self._bisect_contact(lam)

@@ -111,8 +111,8 @@ a pentagon's curl), a jump to a nearer state of another branch turns away (-0.50
 
 
 def turned(move: np.ndarray, last_move: np.ndarray | None, side_length: float) -> bool:
-    """Whether a step whose nodes moved by ``move`` (n, 3) mm (or flat, 3n) turned away from the direction of
-    the branch's last step ``last_move`` (None: no last step on this branch, e.g. the first
+    """Whether a step whose nodes moved by ``move`` (n, 3) mm (or flat, 3n) turned away from the
+    direction of the branch's last step ``last_move`` (None: no last step on this branch, e.g. the first
     after an event). The rate test (:func:`jumped`) cannot see a jump to a state nearer than
     the last step's rate predicts, which a step taken just after a bifurcation, where the new
     branch grows steeply, can make. A move within :data:`JUMP_FLOOR` of the side is no jump."""
@@ -120,4 +120,3 @@ def turned(move: np.ndarray, last_move: np.ndarray | None, side_length: float) -
         return False
     a, b = np.ravel(move), np.ravel(last_move)
     return float(a @ b) < TURN * float(np.linalg.norm(a) * np.linalg.norm(b))
-

@@ -295,7 +295,7 @@ class Result:
         """One row of scalar results, keys :data:`SUMMARY_COLUMNS` (NaN where not defined): the
         measures, the energies, the cost, and which state it is: ``stable`` and
         ``lowest_eigenvalue`` (per unit film area; '' and NaN where not checked), ``jumps`` (the
-        path's located jumps, 'from->to' pre-stretches) and ``lower_state`` (a stable state of
+        path's located jumps, 'from->to' pre-stretches joined by '; ') and ``lower_state`` (a stable state of
         lower energy found from another start, in words)."""
         row: dict[str, Any] = {"prestretch": self.prestretch}
         try:
@@ -325,7 +325,7 @@ class Result:
             contact_checked=self.info.get("contact_checked", ""),
             stable="" if self.info.get("stable") is None else bool(self.info["stable"]),
             lowest_eigenvalue=self.info.get("lowest_eigenvalue_N_per_mm3", np.nan),
-            jumps=" ".join(f"{a:.4f}->{b:.4f}" for a, b in self.info.get("snaps") or []),
+            jumps="; ".join(f"{a:.4f}->{b:.4f}" for a, b in self.info.get("snaps") or []),
             lower_state=lower_state_words(self.info["lower_state"]) if self.info.get("lower_state") else "",
             converged=self.converged,
             status=self.status,

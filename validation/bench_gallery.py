@@ -48,8 +48,9 @@ def rows(*, names: Sequence[str] = SCENES, repeats: int = 3, divisions: int = 14
                              else f"{1e3 * t / max(iterations, 1):.1f} ms/Newton it")
             last[solver] = res
             out.append({"scene": name, "solver": solver, "status": res.status, "reached": res.prestretch,
-                        "free_dofs": res.info["n_free_dofs"], "time": t, "iterations": iterations, "per_iteration": per_iteration,
-                        "bending_angle": res.bending_angle, "energy": res.energy["total"]})
+                        "free_dofs": res.info["n_free_dofs"], "time": t, "iterations": iterations,
+                        "per_iteration": per_iteration, "bending_angle": res.bending_angle,
+                        "energy": res.energy["total"]})
         d, f = last["DR triangles"], last["FEM P1"]
         out[-2]["note"] = out[-1]["note"] = (
             f"DR - FEM {d.bending_angle - f.bending_angle:+.3f} deg, "
