@@ -1,11 +1,17 @@
 """The demes command line end to end (coarse mesh)."""
 
 import csv
+import signal
+import subprocess
+import sys
+import time
 
+import pytest
 import pyvista as pv
 
 import dr
 import scenes
+from validation import cli
 from validation.cli import main
 
 
@@ -111,3 +117,40 @@ def test_demes_solve_without_contact_checks_says_so_and_names_what_it_cannot_rea
     assert [r["contact_checked"] for r in rows] == ["no", "no"]
     assert rows[1]["bending_angle [deg]"] == "nan" and rows[1]["angle_unreadable"] == "film_crossing"
     assert (rows[1]["status"], rows[1]["converged"]) == ("unreadable", "no")
+
+
+@pytest.mark.parametrize("after", [0.3, 1.5, 3.0])
+def test_ctrl_c_at_any_moment_ends_in_one_line(tmp_path, after):
+    """SIGINT while the command loads its libraries (0.3 s), compiles or solves (the FEM's
+    compiled rod and membrane kernels): exit code 130 and one line, never a traceback."""
+    command = [sys.executable, "-m", "validation.console", "solve", "--mesh-levels", "8", "16",
+               "--prestretch", "1.1", "1.3", "--no-progress", "--out", str(tmp_path / "run")]
+    run = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    time.sleep(after)
+    run.send_signal(signal.SIGINT)
+    _, err = run.communicate(timeout=120)
+    if run.returncode == 0:
+        pytest.skip(f"the command finished within {after} s")
+    assert run.returncode == 130, err
+    assert err.strip().splitlines() == ["demes: interrupted; finished states are on disk"], err
+
+
+def test_an_interrupt_inside_compiled_code_is_an_interrupt(monkeypatch, capsys):
+    """numba's dispatcher turns a KeyboardInterrupt raised in its call into a SystemError caused
+    by it: that is an interrupt (130, one line); a SystemError of another cause is not."""
+    def interrupted_in_numba(args):
+        try:
+            raise KeyboardInterrupt
+        except KeyboardInterrupt as exc:
+            raise SystemError("CPUDispatcher(<function vertex_terms>) returned a result with an exception set") from exc
+
+    monkeypatch.setattr(cli, "cmd_solve", interrupted_in_numba)
+    assert main(["solve"]) == 130
+    assert capsys.readouterr().err == "demes: interrupted; finished states are on disk\n"
+
+    def broken(args):
+        raise SystemError("a bug")
+
+    monkeypatch.setattr(cli, "cmd_solve", broken)
+    with pytest.raises(SystemError, match="a bug"):
+        main(["solve"])

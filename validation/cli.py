@@ -15,6 +15,7 @@ from results import Result, atomic_write_text
 from scenes import DemesError
 from scenes.scene import prestretch_list
 
+from .interrupt import caused_by_interrupt, report_interrupt
 from .executor import DEFAULT_WORKERS
 from .grid import DEFAULT_MAX_POINTS
 from .sweep import contact_note, print_table, run_sweep, state_notes
@@ -424,9 +425,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     except DemesError as exc:
         print(f"demes: {' '.join(str(exc).split())}", file=sys.stderr)
         return 2
-    except KeyboardInterrupt:
-        print("demes: interrupted; finished states are on disk", file=sys.stderr)
-        return 130
+    except BaseException as exc:
+        # Ctrl-C inside compiled code arrives as a SystemError caused by the KeyboardInterrupt
+        if not caused_by_interrupt(exc):
+            raise
+        return report_interrupt()
 
 
 if __name__ == "__main__":
