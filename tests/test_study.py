@@ -3,9 +3,9 @@ resume."""
 
 import os
 import signal
-import threading
-import time
+import sys
 
+import cloudpickle
 import pandas as pd
 import pytest
 
@@ -100,40 +100,52 @@ def mtimes(out, family):
     return {lam: record_path(folder, lam).stat().st_mtime_ns for lam in load_records(out, family)}
 
 
+def _die_after_the_first_record_of(folder: str, marker: str) -> None:
+    """In a worker: once the first record of the family in ``folder`` is on disk, note its
+    time in ``marker`` and kill this worker process (once, whichever worker gets there)."""
+    import validation.study as worker_study
+
+    write = worker_study._write_record
+
+    def write_then_die(where, record):
+        write(where, record)
+        if str(where) == folder and not os.path.exists(marker):
+            first = worker_study.record_path(where, record["prestretch"])
+            with open(marker, "x") as f:
+                f.write(str(first.stat().st_mtime_ns))
+            os.kill(os.getpid(), signal.SIGKILL)
+
+    worker_study._write_record = write_then_die
+    write_then_die.original = write
+
+
+def _restore_the_record_writer() -> None:
+    import validation.study as worker_study
+
+    worker_study._write_record = getattr(worker_study._write_record, "original", worker_study._write_record)
+
+
 def test_cluster_run_survives_a_killed_worker_and_equals_the_serial_run(serial, cluster, tmp_path, capsys):
-    """Kill the worker solving the slow point once the fast point is finished: the finished
-    records are kept as they were, the rest is redone, and the table is the serial run's."""
+    """The worker solving the slow point is killed right after its first pre-stretch's record
+    is written (from inside the worker, so the kill lands at that point on every run): that
+    record is kept as it was, the rest is redone, and the table is the serial run's."""
     cl, client = cluster
     g = grid()
-    fast, slow = g.families
-    pids = client.run(os.getpid)
-    seen = {}
-
-    def kill_when_the_fast_point_is_done():
-        deadline = time.monotonic() + 300
-        # until the fast point's task returned and the slow one has recorded its first point
-        while time.monotonic() < deadline:
-            fast_done = len(load_records(tmp_path, fast)) == len(fast.prestretches)
-            slow_started = len(load_records(tmp_path, slow)) > 0
-            busy = [addr for addr, keys in client.processing().items() if keys]
-            if fast_done and slow_started and len(busy) <= 1:
-                break
-            time.sleep(0.005)
-        seen["fast"] = mtimes(tmp_path, fast)
-        seen["slow"] = mtimes(tmp_path, slow)
-        seen["killed"] = [pids[addr] for addr in busy]
-        for addr in busy:
-            os.kill(pids[addr], signal.SIGKILL)
-
-    killer = threading.Thread(target=kill_when_the_fast_point_is_done, daemon=True)
-    killer.start()
-    study = run_study(g, tmp_path, scheduler=cl.scheduler_address, plots=False, progress=False)
-    killer.join()
+    _, slow = g.families
+    pids = set(client.run(os.getpid).values())
+    marker = tmp_path / "killed"
+    cloudpickle.register_pickle_by_value(sys.modules[__name__])
+    try:
+        client.run(_die_after_the_first_record_of, str(family_dir(tmp_path, slow)), str(marker))
+        study = run_study(g, tmp_path, scheduler=cl.scheduler_address, plots=False, progress=False)
+        client.run(_restore_the_record_writer)
+    finally:
+        cloudpickle.unregister_pickle_by_value(sys.modules[__name__])
     assert study.failed == {}
-    assert 0 < len(seen["slow"]) < len(slow.prestretches), "the kill missed the slow point's path"
-    assert len(seen["killed"]) == 1 and seen["killed"][0] not in client.run(os.getpid).values()
-    assert mtimes(tmp_path, fast) == seen["fast"]  # finished records not rewritten
-    assert all(mtimes(tmp_path, slow)[lam] == t for lam, t in seen["slow"].items())
+    assert marker.exists(), "no worker was killed"
+    assert len(pids - set(client.run(os.getpid).values())) == 1  # one worker died and was replaced
+    first = record_path(family_dir(tmp_path, slow), slow.prestretches[0])
+    assert first.stat().st_mtime_ns == int(marker.read_text())  # the finished record not rewritten
     pd.testing.assert_frame_equal(comparable(study.table), comparable(serial.table))
     assert (study.table["status"] == "converged").all()
     assert study.table["bending_angle"].between(5, 90).all()  # a curling strip, not a flat state
