@@ -35,6 +35,29 @@ def test_report_files_exist_and_html_is_self_contained(report):
     assert (out / "runs" / "fem_r0" / "fem_r0.pvd").exists()
 
 
+def test_the_report_leads_with_verdicts_that_restate_its_tables(report):
+    """The first section is the verdict table, one row per claim (the experiment's from its
+    study); each verdict follows from the numbers in the detailed tables."""
+    out, _, _ = report
+    md = (out / "report.md").read_text()
+    assert md.split("\n## ")[1].startswith("Verdicts")
+    rows = {r["claim"]: r for r in read_csv(out / "verdicts.csv")}
+    assert len(rows) == 6 and all(r["measured"] and r["verdict"] for r in rows.values())
+    low_cost = next(r for c, r in rows.items() if "low-cost" in c)
+    ratios = [float(r["ratio_fem_over_dr"]) for r in read_csv(out / "time_to_error.csv")
+              if np.isfinite(float(r["ratio_fem_over_dr"]))]
+    expected = ("not measured" if not ratios else "holds" if min(ratios) > 1 else "does not hold" if max(ratios) < 1
+                else f"holds at {sum(x > 1 for x in ratios)} of {len(ratios)} accuracies")
+    assert low_cost["verdict"] == expected
+    limits = [r for r in read_csv(out / "limits.csv") if r.get("agree")]
+    agree = sum(r["agree"] == "yes" for r in limits)
+    one_problem = next(r for c, r in rows.items() if "FEM's limit" in c)
+    assert f"at {agree} of {len(limits)} pre-stretch levels" in one_problem["measured"]
+    experiment = next(r for c, r in rows.items() if "experiment" in c)
+    flats = [float(r["flat_voltage [V]"]) for r in read_csv(out / "experiment_summary.csv")]
+    assert all(f"{v:.0f} V" in experiment["measured"] for v in flats if np.isfinite(v))
+
+
 def test_report_numbers_equal_direct_solver_calls(report):
     out, _, _ = report
     plan = build_plan(quick=True)
@@ -125,7 +148,7 @@ def test_interrupted_validation_redoes_only_what_is_missing(report):
     # --report-only solves nothing and names the unfinished runs
     assert main(["validate", "--quick", "--out", str(out), "--report-only", "--no-progress"]) == 0
     assert not last.exists()
-    findings = (out / "report.md").read_text().split("## ")[1]
+    findings = (out / "report.md").read_text().split("## Findings")[1].split("\n## ")[0]
     assert "Runs not finished" in findings and "dr_paper" in findings and "drconv_n8" in findings
     validate(scenes.load("demes_paper"), out, quick=True, workers=1, progress=False)
     for name, stamp in stamps.items():

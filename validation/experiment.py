@@ -30,12 +30,16 @@ from .document import Section, Table
 from .extension import Study
 from .plan import MATCHED, REFERENCE, Plan, Run
 from .tables import write_csv
+from .verdicts import Verdict
 
 GROUP = "experiment"
 """The plan's group of the voltage runs."""
 
 CALIBRATION = "calibration.json"
 """File of a calibrated run's fit, beside its states."""
+
+CALIBRATED = "exp_fem_calibrated"
+"""The run whose moduli are fitted to the experiment."""
 
 
 def _grid(stop: float, step: float) -> tuple[float, ...]:
@@ -57,7 +61,7 @@ def experiment_runs(*, coarse: dict[str, Any], quick: bool) -> list[Run]:
             title="FEM, strip frame, Table I"),
         Run("exp_dr_table1", "dr", {**mesh, **MATCHED}, group=GROUP, voltages=table,
             title="DR matched (triangles), strip frame, Table I"),
-        Run("exp_fem_calibrated", "fem", {**mesh, **REFERENCE}, group=GROUP, voltages=calibrated,
+        Run(CALIBRATED, "fem", {**mesh, **REFERENCE}, group=GROUP, voltages=calibrated,
             calibrate=True, title="FEM, strip frame, calibrated (membrane.E, frame.E)"),
     ]
 
@@ -199,6 +203,29 @@ def section(ex: Experiment, figs: dict[str, Path | None]) -> Section:
     return Section("Against the experiment", parts)
 
 
+FLAT_MATCH = 0.1
+"""A model reproduces the experiment's flattening voltage when within this fraction of it."""
+
+
+def verdicts(ex: Experiment) -> list[Verdict]:
+    """The row of the verdict table: each model's flattening voltage against the experiment's."""
+    claim = f"The model reproduces the experiment's flattening voltage ({PAPER_FLAT_V:.0f} V)"
+    rows = [r for r in ex.summary if np.isfinite(r["flat_voltage"])]
+    if not rows:
+        return [Verdict(claim, "; ".join(f"{r['model']}: {r['end']}" for r in ex.summary) or "no voltage runs",
+                        "not measured")]
+    measured = "; ".join(f"{r['model']}: flat at {r['flat_voltage']:.0f} V ({r['flat_voltage'] / PAPER_FLAT_V:.2f}x)"
+                         for r in rows)
+    fitted = [r for r in rows if r["run"] == CALIBRATED]
+    as_given = [r for r in rows if r["run"] != CALIBRATED]
+    matched = [abs(r["flat_voltage"] / PAPER_FLAT_V - 1.0) <= FLAT_MATCH for r in as_given]
+    verdict = ("reproduced with Table I's moduli" if matched and all(matched)
+               else "not reproduced with Table I's moduli" if as_given else "")
+    if fitted:
+        verdict += ("; " if verdict else "") + "met by the calibrated model (its two moduli fitted to it)"
+    return [Verdict(claim, measured, verdict)]
+
+
 STUDY = Study(name="experiment", group=GROUP, runs=experiment_runs, execute=execute, analyse=analyse,
-              figures=figures, tables=write_tables, section=section)
+              figures=figures, tables=write_tables, section=section, verdicts=verdicts)
 """The voltage runs against the experiment, as ``demes validate`` plugs them in."""

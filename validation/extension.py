@@ -42,6 +42,9 @@ class Study:
         ``tables(numbers, out_dir)``: its CSV files by name.
     section
         ``section(numbers, figures)``: its section of the report (``figures``: all of them by name).
+    verdicts
+        ``verdicts(numbers)``: its rows of the report's verdict table
+        (:class:`validation.verdicts.Verdict`).
     """
 
     name: str
@@ -52,3 +55,4 @@ class Study:
     figures: Callable[[Any, Path], dict[str, Path]]
     tables: Callable[[Any, Path], dict[str, Path]]
     section: Callable[[Any, dict[str, Path | None]], Section]
+    verdicts: Callable[[Any], list[Any]]

@@ -20,6 +20,8 @@ from .compare import METRIC_UNITS
 from .document import Section, Table, to_html, to_markdown
 from .extension import Study
 from .tables import write_csv
+from .verdicts import COLUMNS as VERDICT_COLUMNS
+from .verdicts import Verdict, verdicts
 
 
 HEADLINE = (
@@ -268,11 +270,14 @@ def write_report(a: Analysis, out_dir: Path, figures: dict[str, Path | None], ti
     after the validation's own (:class:`validation.extension.Study`); returns their paths."""
     files = write_tables(a, out_dir)
     sections = [build(a, figures) for build in SECTIONS]
+    rows = verdicts(a)
     for study in studies:
         if study.name in a.studies:
             files.update(study.tables(a.studies[study.name], out_dir))
             sections.append(study.section(a.studies[study.name], figures))
-    files.update(write_document(sections, title, out_dir))
+            rows += study.verdicts(a.studies[study.name])
+    files["verdicts"] = write_csv(out_dir / "verdicts.csv", [r._asdict() for r in rows])
+    files.update(write_document([_verdict_section(rows), *sections], title, out_dir))
     return files
 
 
@@ -292,6 +297,12 @@ def write_document(sections: list[Section], title: str, out_dir: Path) -> dict[s
         sec.parts = [p for p in sec.parts if p is not None]
     return {"md": atomic_write_text(out_dir / "report.md", to_markdown(sections, title, out_dir)),
             "html": atomic_write_text(out_dir / "index.html", to_html(sections, title))}
+
+
+def _verdict_section(rows: list[Verdict]) -> Section:
+    """One row per claim: what was measured and what it says; the detail follows."""
+    return Section("Verdicts", ["Each claim the validation tests, what it measured and the verdict; the sections "
+                                "below give the detail.", Table(VERDICT_COLUMNS, [r._asdict() for r in rows])])
 
 
 def _findings_section(a: Analysis, figures: dict[str, Path | None]) -> Section:
