@@ -14,7 +14,8 @@ docs/elements.md.
 from .contact import FilmCrossing, FrameContact, MembraneFold
 from .errors import DRError
 from .model import Model
-from .demes import build, solve, sweep
+from .demes import solve, sweep
+from .demes_model import build
 from .relax import relax
 from .actuation import voltage_sweep
 from . import cache as _cache

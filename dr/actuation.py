@@ -20,7 +20,8 @@ from scenes import Scene
 from scenes.electric import (FLAT_DEG, check_voltages, dielectric_coefficient, mounted_thickness,
                              path_end)
 
-from .demes import build, check_voltage_net, solve
+from .demes import solve
+from .demes_model import build, check_voltage_net
 from .film_cells import film_surface
 from .relax import relax
 

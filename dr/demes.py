@@ -1,5 +1,6 @@
-"""DR model of a DEMES scene: the paper's net (links or clustered cables) or membrane triangles on
-the FEM's mesh (``dr.membrane_net = "triangles"``); ``solve`` one state, ``sweep`` pre-stretch."""
+"""DR solution of a DEMES scene: ``solve`` one state along the pre-stretch path (stepping off
+saddles along their lowest mode), ``sweep`` pre-stretch; the model is built by
+:mod:`dr.demes_model`, the state's measures by :mod:`dr.demes_measures`."""
 
 from __future__ import annotations
 
@@ -8,27 +9,19 @@ from dataclasses import dataclass, replace
 from typing import Iterator, Sequence
 
 import numpy as np
-from scipy.spatial import cKDTree
 
 from results import Result
-from scenes import Scene, SceneError
-from scenes.electric import dielectric_coefficient
+from results.path import (AFTER_EVENT, LOCATE, jumped, jumps_message, largest_move, planar, side_of_mode,
+                          turned)
+from scenes import Scene
 from scenes.mesh import membrane_mesh, transfer_linear
-from scenes.scene import prestretch_value
 
-from .contact import FilmCrossing, FrameContact, MembraneFold
-from .clusters import lengths as cable_lengths
-from .film_cells import film_surface
-from .kernels import place_virtual
-from .links import lengths as link_lengths, tensions
-from .model import Model
-from .net import Net, build_net
 from . import stability
+from .demes_measures import asymmetry, paper_formula_membrane_energy, slack_fractions
+from .demes_model import DemesModel, build
+from .film_cells import film_surface
 from .relax import relax
-from .symmetry import Symmetry, kept_by, model_symmetries, restore, restore_mode
-from results.path import (AFTER_EVENT, LOCATE, jumped, jumps_message, largest_move, neutral_stiffness, planar,
-                          side_of_mode, turned)
-from .triangles import AREA as TRI_AREA, energy as triangle_energy, DIRECTIONS as TRI_DIRECTIONS, LAM as TRI_LAM, LAW as TRI_LAW, LINEAR as TRI_LINEAR
+from .symmetry import kept_by, restore, restore_mode
 
 
 SADDLE_STEP = 0.05
@@ -43,236 +36,6 @@ MIN_TOLERANCE = 1e-12
 
 MAX_SADDLE_STEPS = 5
 """Steps off saddles at one pre-stretch after which the state is reported 'unstable'."""
-
-
-@dataclass
-class DemesModel:
-    """A scene's DR model and what the result needs to know about it."""
-
-    model: Model
-    net: Net | None  # the paper's lattice (None for triangles)
-    start: np.ndarray  # (n, 3) initial positions with the symmetry-breaking lift, mm
-    contact: FrameContact | None
-    final_checks: list
-    mirror: np.ndarray | None  # node index of each node's mirror image (x -> -x), if symmetric
-    cable_area: float  # mm^2, of a cable at the net's spacing (the force scale)
-    frame_nodes: np.ndarray  # frame node ids along the outline from the base midpoint
-    frame_s: np.ndarray  # their arc lengths, mm
-    spacing: float  # mm
-    neutral: float  # N/mm^3, results.path.neutral_stiffness
-    symmetries: list[Symmetry]  # the model's (dr.symmetry.model_symmetries)
-
-
-def check_voltage_net(scene: Scene, voltage: float) -> None:
-    """A voltage needs a net that holds its nodes in the plane: the clustered net's nodes slide
-    along their cables, and the dielectric's softening folds it at once (measured: Table I,
-    strip, 28 divisions, folded between 125 V and 148 V)."""
-    if voltage > 0 and scene.dr.membrane_net == "clustered":
-        raise SceneError(
-            f"a voltage ({voltage:g} V) with dr.membrane_net = 'clustered': its nodes slide along "
-            "their cables and the film's electrostatic softening folds the net; use "
-            "dr.membrane_net = 'links' or 'triangles'")
-
-
-def cable_area(scene: Scene, spacing: float) -> float:
-    """Cable area (mm^2) that makes the net a film of the scene's thickness: A = sqrt(3)/2 h s.
-
-    A triangular net of links EA at spacing s is, for small strains, an isotropic membrane
-    with E t = 2/sqrt(3) EA/s and Poisson's ratio 1/3 (docs/elements.md, 'The film as a net of cables').
-    """
-    return np.sqrt(3) / 2 * scene.membrane.thickness * spacing
-
-
-def build(scene: Scene, prestretch: float | None = None) -> DemesModel:
-    """Build the DR model of ``scene`` at ``prestretch`` (default: the scene's)."""
-    lam = scene.prestretch if prestretch is None else prestretch_value("pre-stretch", prestretch)
-    check_voltage_net(scene, scene.loading.voltage)
-    if scene.frame.film_offset:
-        raise SceneError("frame.film_offset = true (the film on the strip's face) is modelled by the FEM "
-                         "reference only; set frame.film_offset = false for DR")
-    if scene.dr.membrane_net == "triangles":
-        return _build_triangles(scene, lam)
-    if scene.membrane.law != "linear":
-        raise SceneError(
-            f"membrane.law = {scene.membrane.law!r}: the DR net models the 'linear' (Hookean cable) "
-            f"law only; use dr.membrane_net = 'triangles' or the FEM reference for {scene.membrane.law!r}"
-        )
-    outline = scene.outline
-    s_right, s_left = scene.base_region()
-    clamps = scene.clamps()
-    landmarks = [0.0, outline.apex_arc_length(), s_right, s_left, *outline.breakpoints()]
-    frame = scene.frame
-    net = build_net(outline, scene.mesh.divisions, landmarks, frame.lever)
-    nf = net.n_frame
-    fs = net.frame_s
-    held = (fs <= s_right + 1e-9) | (fs >= s_left - 1e-9)
-    m = Model(net.nodes)
-    m.triangles = net.triangles
-    m.support(np.flatnonzero(held))
-
-    if frame.model == "strip":
-        # the FEM's rod: each edge's strip plane passes through its bond nodes, frame.bond_lever
-        # inside, at every mesh density (docs/discrete-problem.md)
-        m.add_rod(np.arange(nf), EA=frame.EA, EI=frame.EI, closed=True, EI_strong=frame.EI_strong,
-                  GJ=frame.GJ, bond=net.bond_nodes)
-    else:
-        # the paper's isotropic spline beam on the free part, clamped where the tape ends
-        chain = np.arange(nf)
-        if clamps:
-            r, l = net.frame_node_at(clamps[0][0]), net.frame_node_at(clamps[1][0])
-            for (_, tangent), node in zip(clamps, (r, l)):
-                m.clamp(node, tangent, taped=True)
-            chain = chain[r:l + 1]
-        m.add_beam(chain, EI=frame.EI, EA=frame.EA, closed=not clamps)
-
-    # membrane: the row between centreline and bond line as triangles; inside, the lattice
-    # lines as clustered cables (the paper) or one link per segment
-    mem = scene.membrane
-    m.add_triangles(net.row_triangles, E=mem.E, thickness=mem.thickness, prestretch=lam, law="linear",
-                    tension_only=mem.tension_only)
-    for cable, film in zip(net.cables, net.cable_film):
-        flat = np.linalg.norm(np.diff(net.nodes[cable], axis=0), axis=1)
-        # the cable carries the film it stands for: E h (film area) / (cable length), which is
-        # E A inside the lattice and makes up for the lattice's margin at the bond line
-        EA = mem.E * mem.thickness * film / flat.sum()
-        if scene.dr.membrane_net == "clustered":
-            m.add_cluster(cable, EA, rest_length=flat.sum() / lam, tension_only=mem.tension_only)
-        else:
-            m.add_link(cable[:-1], cable[1:], EA, rest_length=flat / lam, tension_only=mem.tension_only)
-
-    m.add_dielectric(net.triangles, dielectric_coefficient(scene))
-    start = net.nodes.copy()
-    start[:, 2] += np.where(m.fixed[:, 2], 0.0, scene.initial_lift(net.nodes[:, :2]))
-    contact, final_checks = None, []
-    if scene.dr.check_contact:
-        contact = FrameContact(np.arange(nf), frame.thickness)
-        final_checks = [MembraneFold(net.triangles, net.nodes), FilmCrossing(net.triangles, np.arange(nf))]
-    mirror = _mirror_map(net.nodes)
-    return DemesModel(m, net, start, contact, final_checks, mirror, cable_area(scene, net.spacing),
-                      np.arange(nf), net.frame_s, net.spacing, neutral_stiffness(scene), model_symmetries(m, mirror))
-
-
-def paper_formula_membrane_energy(model: Model, x: np.ndarray) -> float:
-    """The membrane energy by the paper's formula, sum of N eps L / 2 over the membrane's links
-    and cables with the *current* length L, plus the exact energy of the row of triangles at
-    the bond line (N mm; ``results.ENERGY_DEFINITION`` defines both).
-
-    The exact energy of a Hookean element is N eps L0 / 2; the formula is larger by L / L0,
-    about the pre-stretch. Reported beside the exact energy so the energies can be read
-    against the paper's."""
-    P = model.pack()
-    X = np.vstack([x, np.zeros((P.n_total - P.n, 3))])
-    place_virtual(X, P)
-    mem = ~P.link_frame
-    L, L0 = link_lengths(X, P)[mem], P.link_L0[mem]
-    eps = (L - L0) / L0
-    N = tensions(P.link_EA[mem], L0, L, P.link_tension_only[mem])
-    Lc = cable_lengths(X, P)
-    eps_c = (Lc - P.clu_L0) / P.clu_L0
-    Nc = tensions(P.clu_EA, P.clu_L0, Lc, P.clu_tension_only)
-    # the row of triangles at the bond line is no tension element: its exact energy is added
-    return float(0.5 * (np.sum(N * eps * L) + np.sum(Nc * eps_c * Lc)) + triangle_energy(X, P))
-
-
-def slack_fractions(dm: DemesModel, res: Result) -> tuple[float, float]:
-    """Fractions of the flat membrane area with at least one slack direction (a tension field,
-    wrinkles) and with only slack directions (fully slack).
-
-    Constant-strain triangles (the DR triangles, the nets' row at the bond line) are measured
-    by their strains, the nets' lattice triangles by their edges' cables."""
-    area, some, full = _triangle_slack(dm, res.x)
-    if dm.net is not None:
-        parts = zip((area, some, full), _lattice_slack(dm, res))
-        area, some, full = (np.concatenate(p) for p in parts)
-    if area.size == 0 or not np.isfinite(area).all():
-        return float("nan"), float("nan")
-    return float(area[some].sum() / area.sum()), float(area[full].sum() / area.sum())
-
-
-def _lattice_slack(dm: DemesModel, res: Result) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Per lattice triangle of a net: flat area, whether some / all of its cable edges are slack
-    (tension not above 1e-9 of the largest membrane tension)."""
-    tri = dm.net.triangles[dm.net.row_triangles.shape[0]:]
-    x0 = dm.net.nodes
-    area = 0.5 * np.linalg.norm(np.cross(x0[tri[:, 1]] - x0[tri[:, 0]], x0[tri[:, 2]] - x0[tri[:, 0]]), axis=1)
-    edges, tension = [], []
-    for name in ("membrane_links", "membrane_clusters"):
-        if name in res.blocks:
-            edges.append(res.blocks[name].connectivity)
-            tension.append(res.blocks[name].cell_data["tension_N"])
-    if not edges:
-        return area, np.zeros(area.size, bool), np.zeros(area.size, bool)
-    edges, tension = np.sort(np.vstack(edges), axis=1), np.concatenate(tension)
-    n = x0.shape[0]
-    keys = edges[:, 0] * n + edges[:, 1]
-    taut = keys[tension > 1e-9 * max(float(tension.max()), 1e-300)]
-    t_edges = np.sort(np.stack([tri[:, [0, 1]], tri[:, [1, 2]], tri[:, [2, 0]]], axis=1), axis=2)
-    t_keys = t_edges[..., 0] * n + t_edges[..., 1]
-    membrane = np.isin(t_keys, keys)
-    slack = membrane & ~np.isin(t_keys, taut)
-    some = slack.any(axis=1)
-    return area, some, some & (slack == membrane).all(axis=1)
-
-
-def _triangle_slack(dm: DemesModel, x: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Per constant-strain triangle: flat area, whether some / all families are slack. With the
-    linear law a family (lattice direction m_k) is slack where its strain lambda |F m_k| - 1 is
-    not positive, as the FEM measures it; the neo-Hookean film's principal tensions are not
-    measured here (NaN areas)."""
-    P = dm.model.pack()
-    if P.tri_idx.shape[0] == 0:
-        return np.zeros(0), np.zeros(0, bool), np.zeros(0, bool)
-    area = P.tri_par[:, TRI_AREA]
-    if P.tri_par[0, TRI_LAW] != TRI_LINEAR:
-        return np.full(area.size, np.nan), np.zeros(area.size, bool), np.zeros(area.size, bool)
-    F = np.einsum("tai,taj->tij", x[P.tri_idx], P.tri_grad)  # (t, 3, 2) deformation gradients
-    stretch = np.linalg.norm(np.einsum("tij,kj->tki", F, TRI_DIRECTIONS), axis=2)  # (t, 3)
-    slack = P.tri_par[:, TRI_LAM, None] * stretch - 1.0 <= 0.0
-    return area, slack.any(axis=1), slack.all(axis=1)
-
-
-def _build_triangles(scene: Scene, lam: float) -> DemesModel:
-    """Constant-strain triangles on the scene's mesh at ``fem.refinement`` with the frame rod
-    of bond points: the FEM reference's discrete problem (docs/discrete-problem.md)."""
-    frame = scene.frame
-    mesh = membrane_mesh(scene, scene.fem.refinement)
-    nodes = np.column_stack([mesh.nodes, np.zeros(len(mesh.nodes))])
-    m = Model(nodes)
-    m.triangles = mesh.triangles
-    s_right, s_left = scene.base_region()
-    tol = 1e-9 * scene.outline.length
-    held = (mesh.frame_s <= s_right + tol) | (mesh.frame_s >= s_left - tol)
-    m.support(mesh.frame_nodes[held])
-    mem = scene.membrane
-    m.add_triangles(mesh.triangles, E=mem.E, thickness=mem.thickness, prestretch=lam, law=mem.law,
-                    tension_only=mem.tension_only, gent_jm=mem.gent_jm)
-    strip = frame.model == "strip"
-    m.add_rod(mesh.frame_nodes, EA=frame.EA, EI=frame.EI, closed=True,
-              EI_strong=frame.EI_strong if strip else None, GJ=frame.GJ if strip else None,
-              bond=mesh.bond_nodes if strip else None)
-    m.add_dielectric(mesh.triangles, dielectric_coefficient(scene))
-    start = nodes.copy()
-    start[:, 2] += np.where(m.fixed[:, 2], 0.0, scene.initial_lift(nodes[:, :2]))
-    contact, final_checks = None, []
-    if scene.dr.check_contact:
-        contact = FrameContact(mesh.frame_nodes, frame.thickness)
-        final_checks = [MembraneFold(mesh.triangles, nodes), FilmCrossing(mesh.triangles, mesh.frame_nodes)]
-    mirror = _mirror_map(nodes)
-    return DemesModel(m, None, start, contact, final_checks, mirror, cable_area(scene, mesh.spacing),
-                      mesh.frame_nodes, mesh.frame_s, mesh.spacing, neutral_stiffness(scene),
-                      model_symmetries(m, mirror))
-
-
-def _mirror_map(nodes: np.ndarray) -> np.ndarray | None:
-    """Index of each node's mirror image across x = 0, or None if the model is not symmetric."""
-    dist, idx = cKDTree(nodes).query(nodes * [-1.0, 1.0, 1.0])
-    scale = np.ptp(nodes[:, 0]) or 1.0
-    return idx if np.all(dist < 1e-9 * scale) else None
-
-
-def asymmetry(x: np.ndarray, mirror: np.ndarray) -> float:
-    """Largest distance between a node and the mirror image of its mirror node, mm."""
-    return float(np.max(np.linalg.norm(x - x[mirror] * [-1.0, 1.0, 1.0], axis=1)))
 
 
 def solve(scene: Scene, prestretch: float | None = None, x_start: np.ndarray | None = None,

@@ -25,7 +25,7 @@ from results import Result
 from results.crossing import Crossing, film_crossing
 from results.path import AFTER_EVENT, LOCATE, jumped, largest_move, neutral_stiffness, planar, side_of_mode, turned
 from scenes import Scene, SceneError
-from scenes.scene import integer_at_least, prestretch_list
+from scenes.fields import integer_at_least, prestretch_list
 
 from .contact import Contact, frame_contact, membrane_fold
 from .model import DemesProblem

@@ -1,28 +1,23 @@
 """What is modelled, independently of any solver: frame, membrane, pre-stretch, supports, mesh.
 
-A scene is a tree of frozen dataclasses. Every field is checked when the scene is built, and a bad
-field raises :class:`SceneError` naming it (``frame.corner_radius``) and the fix. Units are mm,
-N, MPa throughout.
+A scene is a tree of frozen dataclasses. Every field is checked when the scene is built (the
+checks: :mod:`scenes.fields`), and a bad field raises :class:`SceneError` naming it
+(``frame.corner_radius``) and the fix. Units are mm, N, MPa throughout.
 """
 
 from __future__ import annotations
 
-import dataclasses
-import math
 from dataclasses import dataclass, field
 from functools import cached_property
-from typing import Any, Callable, ClassVar
+from typing import Any, ClassVar
 
 import numpy as np
 
 from .errors import SceneError
+from .fields import (PRESTRETCH_MAX, Section, between, boolean, finite, gent_jm_value, integer_at_least,
+                     non_negative, one_of, optional, permittivity_value, positive, prestretch_list,
+                     prestretch_value, show_value, spec, vertex_list)
 from .geometry import Outline, equilateral_triangle
-
-PRESTRETCH_MAX = 10.0
-"""Largest pre-stretch ratio a scene may ask for (elastomer films tear well below 10)."""
-
-MAX_VERTICES = 256
-"""Most corners of a polygon outline (the outline checks are O(k^2))."""
 
 MAX_DIVISIONS = 400
 """Most mesh divisions per side (about 70,000 DR nodes)."""
@@ -30,232 +25,15 @@ MAX_DIVISIONS = 400
 MAX_GRADING = 16.0
 """Largest mesh.grading: frame spacing h0 / 16 (the finest mesh is limited by MAX_DIVISIONS too)."""
 
-MAX_SWEEP = 1000
-"""Most pre-stretch levels in a sweep."""
-
-# ----------------------------------------------------------------------------- field checks
-
-
-def _number(name: str, value: Any) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float)):
-        raise SceneError(f"{name} = {_show(value)} must be a finite number")
-    try:
-        v = float(value)
-    except OverflowError:
-        v = math.inf
-    if not math.isfinite(v):
-        raise SceneError(f"{name} = {_show(value)} must be a finite number")
-    return v
-
-
-def _show(value: Any) -> str:
-    """A field's value for a message, cut short if long."""
-    text = repr(value)
-    return text if len(text) <= 60 else text[:57] + "..."
-
-
-class Check:
-    """A field's check: ``check(name, value)`` returns the value as the scene keeps it or raises
-    :class:`SceneError` naming the field; ``bounds`` says in words what it accepts (docs/scenes.md)."""
-
-    def __init__(self, fn: Callable[[str, Any], Any], bounds: str):
-        self.fn = fn
-        self.bounds = bounds
-
-    def __call__(self, name: str, value: Any) -> Any:
-        return self.fn(name, value)
-
-
-def checked(bounds: str) -> Callable[[Callable[[str, Any], Any]], Check]:
-    """Decorator: the function as a :class:`Check` accepting ``bounds``."""
-    return lambda fn: Check(fn, bounds)
-
-
-def between(low: float, high: float, low_open: bool = False, high_open: bool = False,
-            why: str = "") -> Check:
-    """A number in [low, high] (an end excluded if ``*_open``)."""
-    lo, hi = "(" if low_open else "[", ")" if high_open else "]"
-
-    def check(name: str, value: Any) -> float:
-        v = _number(name, value)
-        if v < low or (low_open and v == low) or v > high or (high_open and v == high):
-            raise SceneError(f"{name} = {v:g} must lie in {lo}{low:g}, {high:g}{hi}{why}")
-        return v
-
-    return Check(check, f"{lo}{low:g}, {high:g}{hi}")
-
-
-@checked("> 0")
-def positive(name: str, value: Any) -> float:
-    v = _number(name, value)
-    if v <= 0:
-        raise SceneError(f"{name} = {v:g} must be positive")
-    return v
-
-
-@checked(">= 0")
-def non_negative(name: str, value: Any) -> float:
-    v = _number(name, value)
-    if v < 0:
-        raise SceneError(f"{name} = {v:g} must be zero or positive")
-    return v
-
-
-@checked("any finite number")
-def finite(name: str, value: Any) -> float:
-    return _number(name, value)
-
-
-@checked(f"[1, {PRESTRETCH_MAX:g}]")
-def prestretch_value(name: str, value: Any) -> float:
-    v = _number(name, value)
-    if v < 1.0:
-        raise SceneError(
-            f"{name} = {v:g} is below 1: pre-stretch is a stretch ratio (1.0 = none, 1.5 = 150 %), "
-            "and a membrane cannot be pre-compressed"
-        )
-    if v > PRESTRETCH_MAX:
-        raise SceneError(f"{name} = {v:g} is above {PRESTRETCH_MAX:g}: no elastomer film stretches that far")
-    return v
-
-
-@checked(">= 1")
-def permittivity_value(name: str, value: Any) -> float:
-    v = _number(name, value)
-    if v < 1.0:
-        raise SceneError(
-            f"{name} = {v:g} is below 1: the relative permittivity of any dielectric is at least 1 "
-            "(vacuum); VHB acrylic film is about 4.65"
-        )
-    return v
-
-
 GENT_JM_VHB = 6.0**2 + 2.0 / 6.0 - 3.0
 """Gent's Jm for VHB: a uniaxial locking stretch of 6 (published fits), I1 - 3 = 33.3."""
-
-
-@checked("> 0")
-def gent_jm_value(name: str, value: Any) -> float:
-    v = _number(name, value)
-    if v <= 0:
-        raise SceneError(
-            f"{name} = {v:g} must be positive: it is the Gent law's limit of I1 - 3 (VHB about 33, "
-            "a uniaxial locking stretch of 6); a larger value is closer to neo-Hookean"
-        )
-    return v
-
-
-@checked(f"1 to {MAX_SWEEP} ratios, each in [1, {PRESTRETCH_MAX:g}]")
-def prestretch_list(name: str, value: Any) -> tuple[float, ...]:
-    if not isinstance(value, (list, tuple)) or not 0 < len(value) <= MAX_SWEEP:
-        raise SceneError(f"{name} must be a list of 1 to {MAX_SWEEP} pre-stretch ratios, e.g. [1.1, 1.3, 1.5]")
-    return tuple(prestretch_value(f"{name}[{i}]", v) for i, v in enumerate(value))
-
-
-@checked("true or false")
-def boolean(name: str, value: Any) -> bool:
-    if not isinstance(value, bool):
-        raise SceneError(f"{name} = {_show(value)} must be true or false")
-    return value
-
-
-def integer_at_least(low: int, high: int = 10**9) -> Check:
-    """A whole number in [low, high]."""
-    def check(name: str, value: Any) -> int:
-        if isinstance(value, bool) or not isinstance(value, int):
-            raise SceneError(f"{name} = {_show(value)} must be a whole number")
-        if value < low:
-            raise SceneError(f"{name} = {value} is too small: use at least {low}")
-        if value > high:
-            raise SceneError(f"{name} = {_show(value)} is too large: use at most {high}")
-        return value
-
-    return Check(check, f"whole number in [{low}, {high}]" if high < 10**9 else f"whole number >= {low}")
-
-
-def one_of(*choices: str) -> Check:
-    """One of the texts ``choices``."""
-    def check(name: str, value: Any) -> str:
-        if not isinstance(value, str) or value not in choices:
-            raise SceneError(f"{name} = {_show(value)} is not one of {', '.join(map(repr, choices))}")
-        return value
-
-    return Check(check, "one of " + ", ".join(f'"{c}"' for c in choices))
-
-
-def optional(check: Check) -> Check:
-    """``check``, or no value (the field's default rule applies)."""
-    def wrapped(name: str, value: Any) -> Any:
-        return None if value is None else check(name, value)
-
-    return Check(wrapped, f"{check.bounds}, or unset")
-
-
-@checked(f"3 to {MAX_VERTICES} [x, y] points, |x|, |y| <= 1e5")
-def vertex_list(name: str, value: Any) -> tuple[tuple[float, float], ...] | None:
-    if value is None:
-        return None
-    usage = f"{name} must be a list of 3 to {MAX_VERTICES} [x, y] points in mm, e.g. [[0, 0], [40, 0], [20, 30]]"
-    if not isinstance(value, (list, tuple)) or not 3 <= len(value) <= MAX_VERTICES:
-        raise SceneError(usage)
-    pts = []
-    for k, p in enumerate(value):
-        if not isinstance(p, (list, tuple)) or len(p) != 2:
-            raise SceneError(f"{name}[{k}] = {_show(p)}: {usage}")
-        pts.append((between(-1e5, 1e5)(f"{name}[{k}][0]", p[0]), between(-1e5, 1e5)(f"{name}[{k}][1]", p[1])))
-    return tuple(pts)
-
-
-def spec(default: Any, check: Check | None, unit: str = "", doc: str = "", bounds: str | None = None) -> Any:
-    """A scene field with its default, its check, its unit, a one-line description and what it
-    accepts (default: its check's ``bounds``; give it where the section checks more, across fields)."""
-    return field(default=default, metadata={"check": check, "unit": unit, "doc": doc,
-                                            "bounds": bounds if bounds is not None else check.bounds})
-
-
-class _Section:
-    """Base of scene sections: runs every field's check with the field's dotted name."""
-
-    _prefix = ""
-
-    def __post_init__(self) -> None:
-        for f in dataclasses.fields(self):
-            check = f.metadata.get("check")
-            if check is not None:
-                object.__setattr__(
-                    self, f.name, check(f"{self._prefix}.{f.name}", getattr(self, f.name))
-                )
-
-    @classmethod
-    def from_dict(cls, data: dict[str, Any]) -> "_Section":
-        if not isinstance(data, dict):
-            raise SceneError(f"[{cls._prefix}] must be a table of fields")
-        names = {f.name for f in dataclasses.fields(cls) if f.init}
-        unknown = sorted(set(data) - names)
-        if unknown:
-            raise SceneError(
-                f"unknown field {cls._prefix}.{unknown[0]}; the fields of [{cls._prefix}] are: "
-                + ", ".join(sorted(names))
-            )
-        return cls(**data)
-
-    def to_dict(self) -> dict[str, Any]:
-        out = {}
-        for f in dataclasses.fields(self):
-            if not f.init:
-                continue
-            v = getattr(self, f.name)
-            if isinstance(v, tuple):
-                v = [list(p) if isinstance(p, tuple) else p for p in v]
-            out[f.name] = v
-        return out
 
 
 # ----------------------------------------------------------------------------- sections
 
 
 @dataclass(frozen=True)
-class FrameSpec(_Section):
+class FrameSpec(Section):
     """The frame strip: outline of its centreline, cross-section, material and model."""
 
     _prefix = "frame"
@@ -364,7 +142,7 @@ class FrameSpec(_Section):
 
 
 @dataclass(frozen=True)
-class MembraneSpec(_Section):
+class MembraneSpec(Section):
     """The pre-stretched film. ``thickness`` is the thickness as mounted (stretched), as in Table I."""
 
     _prefix = "membrane"
@@ -395,7 +173,7 @@ class MembraneSpec(_Section):
 
 
 @dataclass(frozen=True)
-class LoadingSpec(_Section):
+class LoadingSpec(Section):
     """Pre-stretch ratio (1.0 = none) and the sweep that ``demes solve`` runs by default."""
 
     _prefix = "loading"
@@ -410,7 +188,7 @@ class LoadingSpec(_Section):
 
 
 @dataclass(frozen=True)
-class SupportSpec(_Section):
+class SupportSpec(Section):
     """How the base is held: 'taped' pins the base and its corner fillets and clamps the sides."""
 
     _prefix = "supports"
@@ -423,7 +201,7 @@ class SupportSpec(_Section):
 
 
 @dataclass(frozen=True)
-class PerturbationSpec(_Section):
+class PerturbationSpec(Section):
     """Symmetry-breaking initial shape: z = (amplitude + asymmetry * x / (L/2)) * (y / H)^2."""
 
     _prefix = "perturbation"
@@ -442,7 +220,7 @@ class PerturbationSpec(_Section):
 
 
 @dataclass(frozen=True)
-class MeshSpec(_Section):
+class MeshSpec(Section):
     """Mesh density: lattice divisions along the base side (DR) / element size side/divisions (FEM)."""
 
     _prefix = "mesh"
@@ -457,7 +235,7 @@ class MeshSpec(_Section):
 
 
 @dataclass(frozen=True)
-class DRSpec(_Section):
+class DRSpec(Section):
     """Settings of the dynamic-relaxation solver."""
 
     _prefix = "dr"
@@ -513,7 +291,7 @@ class DRSpec(_Section):
 
 
 @dataclass(frozen=True)
-class FEMSpec(_Section):
+class FEMSpec(Section):
     """Settings of the finite-element reference."""
 
     _prefix = "fem"
@@ -556,7 +334,7 @@ class Scene:
         for key, limit in (("name", 100), ("description", 10_000)):
             value = getattr(self, key)
             if not isinstance(value, str) or len(value) > limit:
-                raise SceneError(f"{key} = {_show(value)} must be a text of at most {limit} characters")
+                raise SceneError(f"{key} = {show_value(value)} must be a text of at most {limit} characters")
         if any(c in self.name for c in '/\\\0') or not self.name.isprintable() or self.name in ("", ".", ".."):
             raise SceneError(f"name = {self.name!r} names the output folder: use letters, digits, '_' or '-'")
         side = self.outline.side_length

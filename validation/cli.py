@@ -13,7 +13,7 @@ from typing import Any, Iterator, Sequence
 import scenes
 from results import Result, atomic_write_text
 from scenes import DemesError
-from scenes.scene import prestretch_list
+from scenes.fields import prestretch_list
 
 from .interrupt import caused_by_interrupt, report_interrupt
 from .executor import DEFAULT_WORKERS

@@ -33,7 +33,7 @@ from typing import Any
 
 import scenes
 from scenes import tomllib
-from scenes.scene import prestretch_list
+from scenes.fields import prestretch_list
 
 DEFAULT_MAX_POINTS = 10_000
 """Largest grid (points, pre-stretches included) run without ``--max-points``."""
