@@ -2,6 +2,7 @@
 
 import csv
 import json
+import shutil
 
 import numpy as np
 import pytest
@@ -9,9 +10,14 @@ import pytest
 import dr
 import fem_reference
 import scenes
-from results import load_result
+import validation.validate
+from results import load_result, save_result
 from validation.cli import main
-from validation.plan import MATCHED, REFERENCE, build_plan
+from validation.document import Section
+from validation.extension import Study
+from validation.plan import MATCHED, REFERENCE, Run, build_plan
+from validation.tables import write_csv
+from validation.verdicts import Verdict
 from validation.runner import computation_key
 from validation.validate import validate
 
@@ -298,3 +304,49 @@ def test_graded_speed_rows_are_on_the_graded_mesh(report):
     uniform = DemesProblem(scene.updated(**{"mesh.grading": 1.0}), 0, "P1")
     assert int(float(fem["free_dofs"])) == int(float(dr_row["free_dofs"])) == graded.free.size > uniform.free.size
     assert fem["status"] == dr_row["status"] == "converged"
+
+
+def _toy_runs(*, coarse, quick):
+    return [Run("toy_flat", "dr", {"mesh.divisions": 6, "dr.membrane_net": "triangles"}, prestretches=(1.1,),
+                group="toy", title="toy: DR at 1.1 on 6 divisions")]
+
+
+def _toy_execute(run, scene, run_dir):
+    res = dr.solve(scene, run.prestretches[0])
+    save_result(run_dir / "state.npz", res)
+    return {run.prestretches[0]: res}
+
+
+def _toy_analyse(plan, out_dir):
+    path = out_dir / "runs" / "toy_flat" / "state.npz"
+    return load_result(path) if path.exists() else None
+
+
+TOY = Study(
+    name="toy", group="toy", runs=_toy_runs, execute=_toy_execute, analyse=_toy_analyse,
+    figures=lambda res, fig_dir: {},
+    tables=lambda res, out: {"toy": write_csv(out / "toy.csv", [{"bending_angle": res.bending_angle}])},
+    section=lambda res, figs: Section("Toy study", [f"theta {res.bending_angle:.3f} deg"]),
+    verdicts=lambda res: [Verdict("The toy curls at 1.1", f"{res.bending_angle:.3f} deg",
+                                  "holds" if res.bending_angle > 1 else "does not hold")])
+
+
+def test_a_report_study_is_one_module_and_one_registry_line(report, tmp_path, monkeypatch):
+    """A study beside the validation is a :class:`validation.extension.Study` (here built in
+    this module) and its line in ``validation.validate.STUDIES``: the plan gets its run, the
+    runner hands it to its ``execute``, the report gets its section, table and verdict row, and
+    the runs already on disk are not solved again."""
+    out = tmp_path / "with_toy"
+    shutil.copytree(report[0], out)
+    before = {p.parent.name: p.stat().st_mtime_ns for p in (out / "runs").glob("*/run.json")}
+    monkeypatch.setattr(validation.validate, "STUDIES", (*validation.validate.STUDIES, TOY))
+    validate(scenes.load("demes_paper"), out, quick=True, workers=1, progress=False)
+    direct = dr.solve(scenes.load("demes_paper").updated(**{"mesh.divisions": 6, "dr.membrane_net": "triangles"}), 1.1)
+    md = (out / "report.md").read_text()
+    assert f"## Toy study\n\ntheta {direct.bending_angle:.3f} deg" in md
+    assert float(read_csv(out / "toy.csv")[0]["bending_angle [deg]"]) == direct.bending_angle
+    rows = read_csv(out / "verdicts.csv")
+    assert rows[-1] == {"claim": "The toy curls at 1.1", "measured": f"{direct.bending_angle:.3f} deg",
+                        "verdict": "holds"}
+    after = {p.parent.name: p.stat().st_mtime_ns for p in (out / "runs").glob("*/run.json")}
+    assert {name: after[name] for name in before} == before and "toy_flat" in after
