@@ -211,20 +211,22 @@ def start(st, P, fm, half_safety):
 
 
 @njit(cache=True, error_model="numpy")
-def _take_back(st, P, fm, half_safety):
-    """Undo the step just made, x(t) = x(t+dt) - dt v(t+dt/2), with the residual, masses and
-    accelerations rebuilt there for a restart from rest."""
-    n = P.n
-    for i in range(n):
-        for c in range(3):
-            st.X[i, c] -= st.V[i, c]
-    stiffness(st.X, P, st.S, st.D.shape[0] == 0)
+def _rebuild(st, P, fm, half_safety, bounds):
+    """The residual, masses and accelerations at st.X after the nodes were moved for a restart
+    (back to a kinetic-energy peak, or a step taken back); with ``bounds`` the stiffness bounds
+    are refreshed first, and the masses of every kind with them. Returns -1, or the model node
+    the frame mass found unresisted."""
+    tensor = st.D.shape[0] > 0
+    if bounds:
+        stiffness(st.X, P, st.S, not tensor)
     gradient(st.X, P, st.G, st.D)
-    collect(st.R, st.G, st.loads, st.free, n)
-    build_masses(st, half_safety, fm.pos)
-    if fm.nodes.shape[0] > 0:
-        refresh_frame(st, P, fm, half_safety)
-    accelerations(st, fm, n)
+    collect(st.R, st.G, st.loads, st.free, P.n)
+    if tensor or bounds:
+        build_masses(st, half_safety, fm.pos)
+    bad = refresh_frame(st, P, fm, half_safety) if fm.nodes.shape[0] > 0 else -1
+    if bad < 0:
+        accelerations(st, fm, P.n)
+    return bad
 
 
 @njit(cache=True, error_model="numpy")
@@ -277,8 +279,7 @@ def run(st, P, cfg, fm):
     taken_back = False
     while steps < cfg.max_steps:
         if taken_back:
-            how = dmp.RESTART
-            taken_back = False
+            how = dmp.MOVED_BACK  # rebuilt below where the step started, bounds included
         elif scheme == dmp.VISCOUS:
             how = dmp.viscous(st, n)
         elif scheme == dmp.FIRE:
@@ -288,15 +289,10 @@ def run(st, P, cfg, fm):
         if how != dmp.GOING:
             restarts += 1
             if how == dmp.MOVED_BACK:
-                gradient(X, P, G, D)
-                collect(R, G, loads, free, n)
-                if tensor:
-                    build_masses(st, cfg.half_safety, fm.pos)
-                if frame:
-                    frame_drifted = 0.0
-                    if refresh_frame(st, P, fm, cfg.half_safety) >= 0:
-                        return NONFINITE, steps, restarts, fmax, rmax
-                accelerations(st, fm, n)
+                frame_drifted = 0.0
+                if _rebuild(st, P, fm, cfg.half_safety, taken_back) >= 0:
+                    return NONFINITE, steps, restarts, fmax, rmax
+                taken_back = False
             dmp.accelerate(V, st.A, n, 0.0, 0.5)
         step_max2 = 0.0
         watch_max2 = 0.0
@@ -323,9 +319,10 @@ def run(st, P, cfg, fm):
                 frame_refresh = fmm.follow(X, fm) > cfg.frame_turn
         fmax = gradient(X, P, G, D if rebuild or not tensor else no_blocks)
         if fmax > FORCE_JUMP * max(fmax_last, cfg.force_floor):
-            _take_back(st, P, fm, cfg.half_safety)
+            for i in range(n):  # back to x(t) = x(t+dt) - dt v(t+dt/2)
+                for c in range(3):
+                    X[i, c] -= V[i, c]
             taken_back = True
-            frame_drifted = 0.0
             fmax_last = math.inf
             continue
         fmax_last = fmax
