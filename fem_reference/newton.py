@@ -136,7 +136,8 @@ class _Symbolic:
         cols = np.repeat(np.arange(n, dtype=np.int64), np.diff(A.indptr))
         lower = A.indices >= cols
         ones = cvxopt.matrix(1.0, (int(lower.sum()), 1))
-        matrix = cvxopt.spmatrix(ones, cvxopt.matrix(A.indices[lower].astype(np.int64)), cvxopt.matrix(cols[lower]), (n, n))
+        rows = cvxopt.matrix(A.indices[lower].astype(np.int64))
+        matrix = cvxopt.spmatrix(ones, rows, cvxopt.matrix(cols[lower]), (n, n))
         return _Pattern(A.indptr.copy(), A.indices.copy(), lower, matrix)
 
     def current(self, pattern: _Pattern, stamp: int) -> bool:

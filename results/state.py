@@ -295,8 +295,8 @@ class Result:
         """One row of scalar results, keys :data:`SUMMARY_COLUMNS` (NaN where not defined): the
         measures, the energies, the cost, and which state it is: ``stable`` and
         ``lowest_eigenvalue`` (per unit film area; '' and NaN where not checked), ``jumps`` (the
-        path's located jumps, 'from->to' pre-stretches joined by '; ') and ``lower_state`` (a stable state of
-        lower energy found from another start, in words)."""
+        path's located jumps, 'from->to' pre-stretches joined by '; ') and ``lower_state`` (a
+        stable state of lower energy found from another start, in words)."""
         row: dict[str, Any] = {"prestretch": self.prestretch}
         try:
             apex = self.apex

@@ -335,11 +335,11 @@ def _hard(a: Analysis) -> None:
 
 
 REFERENCE_QUANTITIES = ("bending_angle", "apex_y", "apex_z", "energy_total")
+"""The scalars of the reference table (with their error estimates)."""
 
 ANGLE_ROUND_OFF = 1e-9
 """deg: two limits' bending angles this close are equal whatever their error estimates (at the
 flat state both are zero to round-off, with estimates of 1e-19 deg or exactly 0)."""
-"""The scalars of the reference table (with their error estimates)."""
 
 
 def _reference_rows(a: Analysis) -> None:

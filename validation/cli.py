@@ -15,9 +15,9 @@ from results import Result, atomic_write_text
 from scenes import DemesError
 from scenes.fields import prestretch_list
 
-from .interrupt import caused_by_interrupt, report_interrupt
 from .executor import DEFAULT_WORKERS
 from .grid import DEFAULT_MAX_POINTS
+from .interrupt import caused_by_interrupt, report_interrupt
 from .sweep import contact_note, print_table, run_sweep, state_notes
 
 

@@ -55,9 +55,8 @@ def _solver_columns(prefix: str, res: Result | None) -> dict[str, Any]:
         return {f"{prefix}_status": "not reached"}
     row = res.summary()
     return {f"{prefix}_status": res.status, f"{prefix}_angle": row["bending_angle"], f"{prefix}_branch": row["branch"],
-            f"{prefix}_energy": res.energy["total"], f"{prefix}_stable": res.info.get("stable", ""),
-            f"{prefix}_jumps": row["jumps"], f"{prefix}_time": res.wall_time,
-        f"{prefix}_reached": res.prestretch}
+            f"{prefix}_energy": res.energy["total"], f"{prefix}_stable": row["stable"],
+            f"{prefix}_jumps": row["jumps"], f"{prefix}_time": res.wall_time, f"{prefix}_reached": res.prestretch}
 
 
 def compare(name: str, lam: float, dr_state: Result | None, fem_state: Result | None) -> dict[str, Any]:

@@ -21,7 +21,7 @@ from .document import Section, Table, to_html, to_markdown
 from .extension import Study
 from .tables import write_csv
 from .verdicts import COLUMNS as VERDICT_COLUMNS
-from .verdicts import Verdict, verdicts
+from .verdicts import verdicts
 
 
 HEADLINE = (
@@ -276,8 +276,9 @@ def write_report(a: Analysis, out_dir: Path, figures: dict[str, Path | None], ti
             files.update(study.tables(a.studies[study.name], out_dir))
             sections.append(study.section(a.studies[study.name], figures))
             rows += study.verdicts(a.studies[study.name])
-    files["verdicts"] = write_csv(out_dir / "verdicts.csv", [r._asdict() for r in rows])
-    files.update(write_document([_verdict_section(rows), *sections], title, out_dir))
+    table = [r._asdict() for r in rows]
+    files["verdicts"] = write_csv(out_dir / "verdicts.csv", table)
+    files.update(write_document([_verdict_section(table), *sections], title, out_dir))
     return files
 
 
@@ -299,10 +300,11 @@ def write_document(sections: list[Section], title: str, out_dir: Path) -> dict[s
             "html": atomic_write_text(out_dir / "index.html", to_html(sections, title))}
 
 
-def _verdict_section(rows: list[Verdict]) -> Section:
-    """One row per claim: what was measured and what it says; the detail follows."""
+def _verdict_section(rows: list[dict[str, str]]) -> Section:
+    """One row per claim (:class:`validation.verdicts.Verdict` as a dict): what was measured and
+    what it says; the detail follows."""
     return Section("Verdicts", ["Each claim the validation tests, what it measured and the verdict; the sections "
-                                "below give the detail.", Table(VERDICT_COLUMNS, [r._asdict() for r in rows])])
+                                "below give the detail.", Table(VERDICT_COLUMNS, rows)])
 
 
 def _findings_section(a: Analysis, figures: dict[str, Path | None]) -> Section:

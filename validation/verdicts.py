@@ -30,6 +30,11 @@ COLUMNS = (("claim", "claim", ""), ("measured", "measured", ""), ("verdict", "ve
 NOT_MEASURED = "not measured"
 
 
+def _held(hits: int, cases: int, what: str) -> str:
+    """The verdict of a claim that held in ``hits`` of ``cases`` (``what``: their plural noun)."""
+    return "holds" if hits == cases else "does not hold" if hits == 0 else f"holds at {hits} of {cases} {what}"
+
+
 def low_cost(a: Analysis) -> Verdict:
     """The paper's claim: DR reaches a shape accuracy in less time than the FEM."""
     claim = "DR is cheaper than the FEM for the same shape accuracy (the paper's low-cost claim)"
@@ -41,10 +46,7 @@ def low_cost(a: Analysis) -> Verdict:
                          f"(FEM/DR {r['ratio_fem_over_dr']:.3g})" for r in rows)
     if missing:
         measured += f"; {', '.join(missing)} not reached by one of them"
-    cheaper = [r["ratio_fem_over_dr"] > 1.0 for r in rows]
-    verdict = ("holds" if all(cheaper) else "does not hold" if not any(cheaper)
-               else f"holds at {sum(cheaper)} of {len(rows)} accuracies")
-    return Verdict(claim, measured, verdict)
+    return Verdict(claim, measured, _held(sum(r["ratio_fem_over_dr"] > 1.0 for r in rows), len(rows), "accuracies"))
 
 
 def one_problem(a: Analysis) -> Verdict:
@@ -57,8 +59,7 @@ def one_problem(a: Analysis) -> Verdict:
     worst = max(rows, key=lambda r: abs(r["theta_diff"]))
     measured = (f"limits within their error estimates at {len(agree)} of {len(rows)} pre-stretch levels; "
                 f"largest difference {abs(worst['theta_diff']):.3g} deg at lambda = {level_label(worst['prestretch'])}")
-    verdict = "holds" if len(agree) == len(rows) else f"holds at {len(agree)} of {len(rows)} levels"
-    return Verdict(claim, measured, verdict)
+    return Verdict(claim, measured, _held(len(agree), len(rows), "levels"))
 
 
 def model_form(a: Analysis) -> Verdict:
