@@ -12,8 +12,8 @@ import sys
 from pathlib import Path
 
 from scenes import tomllib
-from validation.grid import grid_from_dict
-from validation.study import run_study
+from validation.design.grid import grid_from_dict
+from validation.design.sweep import run_study
 
 if __name__ == "__main__":  # the LocalCluster's worker processes import this file again
     path = Path(__file__).with_name("design_grid.toml")

@@ -8,7 +8,7 @@ import os
 import numpy as np
 
 import dr
-from validation.closed_forms import elastica_cantilever
+from validation.common.closed_forms import elastica_cantilever
 
 EA, EI, L = 1300.0, 0.78, 80.0  # Table I strip, N and N mm^2; length mm
 for segments in (10, 20) if os.environ.get("DEMES_QUICK") == "1" else (10, 20, 40):

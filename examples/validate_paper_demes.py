@@ -14,7 +14,7 @@ from pathlib import Path
 
 import scenes
 from results import level_label
-from validation.validate import validate
+from validation.report.validate import validate
 
 # the runs go to a Dask LocalCluster, whose worker processes import this file again
 if __name__ == "__main__":

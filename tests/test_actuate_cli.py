@@ -7,9 +7,9 @@ import csv
 import numpy as np
 import pytest
 
-from validation.actuate import parse_voltages
+from validation.actuation.actuate import parse_voltages
 from validation.cli import main
-from validation.electromechanics import capacitor_energy
+from validation.actuation.electromechanics import capacitor_energy
 
 
 def _rows(path):

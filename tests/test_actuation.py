@@ -1,6 +1,6 @@
 """Voltage actuation: the ideal dielectric's energy against its closed forms, in the FEM.
 
-The closed forms (validation.electromechanics) are the Maxwell stress eps0 eps_r (V/h)^2 of a flat
+The closed forms (validation.actuation.electromechanics) are the Maxwell stress eps0 eps_r (V/h)^2 of a flat
 film, the capacitor energy A C V^2 / 2, and the free equibiaxial film of Zhao & Suo (2007) with
 its pull-in peak; none of them comes from a solver.
 """
@@ -18,7 +18,7 @@ from fem_reference.membrane import Membrane
 from fem_reference.model import Evaluation, mass_form
 from fem_reference.newton import newton
 from scenes.electric import EPSILON_0, check_voltages, dielectric_coefficient
-from validation.electromechanics import (capacitor_energy, free_film_pull_in, free_film_stretch,
+from validation.actuation.electromechanics import (capacitor_energy, free_film_pull_in, free_film_stretch,
                                          free_film_voltage, gent_jm, maxwell_stress)
 
 EPS_R = 4.65
@@ -269,7 +269,7 @@ def test_dr_free_film_stretch_matches_zhao_suo():
 def test_flattening_voltage_closed_form_and_sensitivities():
     """Table I's film (link-net law, E h = 0.05 N/mm, 150 %) loses its tension at
     V = sqrt(3/2 E h (lambda - 1) h / eps) (the FEM sweep of the strip DEMES ends flat at 6748 V)."""
-    from validation.calibrate import fit_membrane_modulus, flattening_voltage, sensitivity
+    from validation.actuation.calibrate import fit_membrane_modulus, flattening_voltage, sensitivity
 
     scene = scenes.paper_demes(1.5, "strip")
     hand = np.sqrt(1.5 * 1.0 * 0.05 * 0.5 * 0.05 / (EPSILON_0 * 4.65))

@@ -6,8 +6,8 @@ import pytest
 import dr
 import scenes
 from dr.stability import potential_energy
-from validation.bench import ALPHA, LENGTH, elastica_model
-from validation.closed_forms import elastica_cantilever
+from validation.bench.dr_cases import ALPHA, LENGTH, elastica_model
+from validation.common.closed_forms import elastica_cantilever
 
 
 @pytest.mark.parametrize("damping", ["viscous", "fire"])

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 import dr
-from validation.closed_forms import arc_under_end_moment, catenary_sag, elastica_cantilever, sliding_cable
+from validation.common.closed_forms import arc_under_end_moment, catenary_sag, elastica_cantilever, sliding_cable
 
 # the real strip (Table I): EA = 2600 * 0.5 N, EI = 2600 * 0.0003 N mm^2, 2 mm segments at N = 40
 EA, EI, LENGTH = 1300.0, 0.78, 80.0

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 import dr
-from validation.closed_forms import elastica_cantilever
+from validation.common.closed_forms import elastica_cantilever
 
 LENGTH, N = 80.0, 40
 EA, EI_W, EI_S, GJ = 1300.0, 0.78, 1761.0, 2.58  # the real strip (Table I, b t^3/12 ...)

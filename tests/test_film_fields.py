@@ -18,7 +18,7 @@ from results.film import (LATTICE_ANGLES_DEG, PARTLY_SLACK, SLACK, TAUT, FilmLaw
                           triangle_gradients)
 from scenes.electric import EPSILON_0
 from validation.cli import main
-from validation.electromechanics import maxwell_stress
+from validation.actuation.electromechanics import maxwell_stress
 
 E, H, JM, EPS_R = 1.0, 0.05, 10.0, 4.65
 FIELDS = ("stretch_1", "stretch_2", "cauchy_stress_1_MPa", "cauchy_stress_2_MPa", "thickness_mm",

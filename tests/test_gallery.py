@@ -6,7 +6,7 @@ import csv
 import pytest
 
 from validation.cli import main
-from validation.gallery import GALLERY, gallery_scene
+from validation.solve.gallery import GALLERY, gallery_scene
 
 
 def test_every_gallery_scene_loads_with_a_polygon_or_triangle_frame():

@@ -2,7 +2,7 @@
 
 W = -mu h Jm / 2 ln(1 - (I1 - 3) / Jm): neo-Hookean as Jm -> infinity (the difference is
 mu h / 4 (I1 - 3)^2 / Jm to first order), and for the free equibiaxial film under voltage the
-ideal-dielectric closed form of validation.electromechanics, whose pull-in peak moves up for
+ideal-dielectric closed form of validation.actuation.electromechanics, whose pull-in peak moves up for
 moderate Jm and disappears for small Jm (the curve then rises monotonically to the lock). The
 gradients are checked by finite differences in tests/test_one_problem.py (DR triangle) and
 tests/test_fem_membrane.py (FEM law), the DR-FEM energy identity there too.
@@ -23,7 +23,7 @@ from fem_reference.membrane import Membrane
 from fem_reference.newton import newton
 from scipy.optimize import brentq
 
-from validation.electromechanics import (free_film_pull_in, free_film_stretch, free_film_voltage,
+from validation.actuation.electromechanics import (free_film_pull_in, free_film_stretch, free_film_voltage,
                                          gent_lock_stretch)
 
 MU, H = 0.015, 0.1  # MPa, mm: the neo-Hookean free film pulls in near 1311 V

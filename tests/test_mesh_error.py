@@ -1,4 +1,4 @@
-"""The discretisation error each state of ``demes solve`` carries (validation/mesh_error.py)."""
+"""The discretisation error each state of ``demes solve`` carries (validation/solve/mesh_error.py)."""
 
 import csv
 import math
@@ -8,7 +8,7 @@ import pytest
 import dr
 import fem_reference
 import scenes
-from validation import mesh_error
+from validation.solve import mesh_error
 from validation.cli import main
 
 

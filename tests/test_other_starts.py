@@ -1,4 +1,4 @@
-"""Other stable states at a state's pre-stretch (validation.other_starts): a film bonded on one
+"""Other stable states at a state's pre-stretch (validation.solve.other_starts): a film bonded on one
 face of the strip breaks the flip symmetry, and the state curled the other way has a lower
 energy than the one the path curled to; a model with the flip symmetry has none lower from its
 mirror start, whose energy is the path's."""
@@ -11,7 +11,7 @@ import pytest
 import dr
 import fem_reference
 import scenes
-from validation import other_starts
+from validation.solve import other_starts
 from validation.cli import main
 
 ONE_FACE = {"mesh.divisions": 8, "frame.film_offset": True, "fem.element": "P1"}

@@ -15,9 +15,9 @@ import pytest  # noqa: E402
 import dr  # noqa: E402
 from results import CellBlock, atomic_write_text, save_result, write_pvd, write_vtu  # noqa: E402
 from validation.cli import main  # noqa: E402
-from validation.plotting import save_figure  # noqa: E402
-from validation.study import write_table  # noqa: E402
-from validation.tables import write_csv  # noqa: E402
+from validation.common.plotting import save_figure  # noqa: E402
+from validation.design.sweep import write_table  # noqa: E402
+from validation.common.tables import write_csv  # noqa: E402
 
 
 @pytest.fixture

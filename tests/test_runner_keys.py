@@ -13,9 +13,9 @@ import textwrap
 import pytest
 
 import scenes
-from validation import runner
-from validation.lock import FolderBusy, folder_lock
-from validation.plan import Plan, Run
+from validation.report import runner
+from validation.common.lock import FolderBusy, folder_lock
+from validation.report.plan import Plan, Run
 
 RUN = Run(label="tiny", solver="dr", changes={"mesh.divisions": 4}, prestretches=(1.05,), refinement=0,
           group="sweep", title="a 4-division DR state")
@@ -55,7 +55,7 @@ def test_a_folder_being_filled_is_refused_naming_the_process(tmp_path):
         # another process finds it locked, and is told who holds it
         probe = textwrap.dedent(f"""
             from pathlib import Path
-            from validation.lock import FolderBusy, folder_lock
+            from validation.common.lock import FolderBusy, folder_lock
             try:
                 with folder_lock(Path({str(tmp_path)!r}), "demes validate"):
                     print("got it")
@@ -78,7 +78,7 @@ def test_a_lock_left_by_a_dead_process_is_taken_over(tmp_path):
     holder = subprocess.Popen([sys.executable, "-c", textwrap.dedent(f"""
         import sys, time
         from pathlib import Path
-        from validation.lock import folder_lock
+        from validation.common.lock import folder_lock
         with folder_lock(Path({str(tmp_path)!r}), "demes validate"):
             print("locked", flush=True)
             time.sleep(600)

@@ -11,8 +11,8 @@ import pytest
 
 from scenes import tomllib
 from validation.cli import main
-from validation.grid import GridError, grid_from_dict
-from validation.study import family_dir, load_records, record_path, run_study, solve_family, state_path
+from validation.design.grid import GridError, grid_from_dict
+from validation.design.sweep import family_dir, load_records, record_path, run_study, solve_family, state_path
 
 # a fast study: the strip frame (stated: the default frame model may change) on coarse meshes at
 # low pre-stretch; the finer mesh is the slow point, several times slower than the coarse one
@@ -103,7 +103,7 @@ def mtimes(out, family):
 def _die_after_the_first_record_of(folder: str, marker: str) -> None:
     """In a worker: once the first record of the family in ``folder`` is on disk, note its
     time in ``marker`` and kill this worker process (once, whichever worker gets there)."""
-    import validation.study as worker_study
+    import validation.design.sweep as worker_study
 
     write = worker_study._write_record
 
@@ -120,7 +120,7 @@ def _die_after_the_first_record_of(folder: str, marker: str) -> None:
 
 
 def _restore_the_record_writer() -> None:
-    import validation.study as worker_study
+    import validation.design.sweep as worker_study
 
     worker_study._write_record = getattr(worker_study._write_record, "original", worker_study._write_record)
 
@@ -184,7 +184,7 @@ def test_a_failed_path_is_reported_and_left_to_the_rerun(tmp_path, monkeypatch):
     def broken(family, out_dir, vtk):
         raise FloatingPointError(f"path {family.key} diverged")
 
-    monkeypatch.setattr("validation.study.solve_family", broken)
+    monkeypatch.setattr("validation.design.sweep.solve_family", broken)
     study = run_study(grid(), tmp_path, workers=1, plots=False, progress=False)
     assert set(study.failed) == {f.key for f in grid().families} and study.solved == ()
     assert (study.table["status"] == "failed").all()
@@ -199,7 +199,7 @@ def test_a_point_whose_record_was_lost_after_its_state_is_solved_again_the_same(
     solve_family(family, str(tmp_path / "whole"))
     whole = load_records(tmp_path / "whole", family)
 
-    import validation.study as study
+    import validation.design.sweep as study
 
     write = study._write_record
 

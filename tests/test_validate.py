@@ -10,16 +10,16 @@ import pytest
 import dr
 import fem_reference
 import scenes
-import validation.validate
+import validation.report.validate
 from results import load_result, save_result
 from validation.cli import main
-from validation.document import Section
-from validation.extension import Study
-from validation.plan import MATCHED, REFERENCE, Run, build_plan
-from validation.tables import write_csv
-from validation.verdicts import Verdict
-from validation.runner import computation_key
-from validation.validate import validate
+from validation.common.document import Section
+from validation.report.study import Study
+from validation.report.plan import MATCHED, REFERENCE, Run, build_plan
+from validation.common.tables import write_csv
+from validation.report.verdicts import Verdict
+from validation.report.runner import computation_key
+from validation.report.validate import validate
 
 
 def read_csv(path):
@@ -197,7 +197,7 @@ def test_report_only_needs_runs(tmp_path, capsys):
 
 
 def test_csv_has_a_column_for_every_key_of_every_row(tmp_path):
-    from validation.tables import write_csv
+    from validation.common.tables import write_csv
 
     rows = [{"prestretch": 1.0, "r0": 0.0, "r1": 0.0}, {"prestretch": 1.1, "r0": 48.9, "r1": 48.7, "r2": 48.698}]
     write_csv(tmp_path / "t.csv", rows)
@@ -219,7 +219,7 @@ class _State:
 
 
 def test_branch_check_reports_a_level_that_jumps_and_one_that_is_unstable():
-    from validation.analysis import branch_check
+    from validation.report.analysis import branch_check
 
     side = scenes.load("demes_paper").outline.side_length
     converging = [_State(0.0), _State(4.0), _State(5.0), _State(5.25)]  # moves 4, 1, 0.25 mm
@@ -234,7 +234,7 @@ def test_branch_check_reports_a_level_that_jumps_and_one_that_is_unstable():
 def test_first_contact_extrapolates_the_levels_brackets():
     from types import SimpleNamespace
 
-    from validation.analysis import first_contact
+    from validation.report.analysis import first_contact
 
     exact, levels = 1.9, (0, 1, 2)
     states = {}
@@ -332,14 +332,14 @@ TOY = Study(
 
 
 def test_a_report_study_is_one_module_and_one_registry_line(report, tmp_path, monkeypatch):
-    """A study beside the validation is a :class:`validation.extension.Study` (here built in
-    this module) and its line in ``validation.validate.STUDIES``: the plan gets its run, the
+    """A study beside the validation is a :class:`validation.report.study.Study` (here built in
+    this module) and its line in ``validation.report.validate.STUDIES``: the plan gets its run, the
     runner hands it to its ``execute``, the report gets its section, table and verdict row, and
     the runs already on disk are not solved again."""
     out = tmp_path / "with_toy"
     shutil.copytree(report[0], out)
     before = {p.parent.name: p.stat().st_mtime_ns for p in (out / "runs").glob("*/run.json")}
-    monkeypatch.setattr(validation.validate, "STUDIES", (*validation.validate.STUDIES, TOY))
+    monkeypatch.setattr(validation.report.validate, "STUDIES", (*validation.report.validate.STUDIES, TOY))
     validate(scenes.load("demes_paper"), out, quick=True, workers=1, progress=False)
     direct = dr.solve(scenes.load("demes_paper").updated(**{"mesh.divisions": 6, "dr.membrane_net": "triangles"}), 1.1)
     md = (out / "report.md").read_text()

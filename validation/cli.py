@@ -15,10 +15,10 @@ from results import Result, atomic_write_text
 from scenes import DemesError
 from scenes.fields import prestretch_list
 
-from .executor import DEFAULT_WORKERS
-from .grid import DEFAULT_MAX_POINTS
-from .interrupt import caused_by_interrupt, report_interrupt
-from .sweep import contact_note, print_table, run_sweep, state_notes
+from .common.executor import DEFAULT_WORKERS
+from .common.interrupt import caused_by_interrupt, report_interrupt
+from .design.grid import DEFAULT_MAX_POINTS
+from .solve.levels import contact_note, print_table, run_sweep, state_notes
 
 
 def _parse_value(text: str) -> Any:
@@ -115,8 +115,8 @@ def _render(results: Sequence[Result], path: Path, title: str) -> None:
 
 def cmd_solve(args: argparse.Namespace) -> int:
     """The main job: a sweep on nested meshes, each state with its discretisation error."""
-    from . import mesh_error, other_starts
-    from .tables import MESH_ERROR_TABLE
+    from .common.tables import MESH_ERROR_TABLE
+    from .solve import mesh_error, other_starts
 
     scene = load_scene(args)
     lams = _prestretches(args, scene)
@@ -161,8 +161,8 @@ def cmd_fem(args: argparse.Namespace) -> int:
 
 
 def cmd_actuate(args: argparse.Namespace) -> int:
-    from . import actuate
-    from .actuation_figures import energy_stroke, stroke_voltage
+    from .actuation import actuate
+    from .actuation.figures import energy_stroke, stroke_voltage
 
     scene = load_scene(args)
     if args.prestretch:
@@ -192,7 +192,7 @@ def cmd_actuate(args: argparse.Namespace) -> int:
 
 
 def cmd_calibrate(args: argparse.Namespace) -> int:
-    from . import calibrate
+    from .actuation import calibrate
 
     scene = load_scene(args)
     if args.prestretch:
@@ -209,7 +209,7 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
 
 
 def cmd_validate(args: argparse.Namespace) -> int:
-    from .validate import validate
+    from .report.validate import validate
 
     scene = load_scene(args)
     if not 1 <= args.workers <= 64:
@@ -224,8 +224,8 @@ def cmd_validate(args: argparse.Namespace) -> int:
 
 
 def cmd_sweep(args: argparse.Namespace) -> int:
-    from .grid import GridError, load_grid
-    from .study import run_study
+    from .design.grid import GridError, load_grid
+    from .design.sweep import run_study
 
     try:
         grid = load_grid(args.grid, solver=args.solver, max_points=args.max_points)
@@ -248,7 +248,7 @@ def cmd_sweep(args: argparse.Namespace) -> int:
 
 
 def cmd_gallery(args: argparse.Namespace) -> int:
-    from .gallery import GALLERY, run_gallery, table
+    from .solve.gallery import GALLERY, run_gallery, table
 
     if not 1 <= args.workers <= 64:
         raise DemesError(f"--workers {args.workers}: give 1 to 64 worker processes")
@@ -267,14 +267,14 @@ def cmd_gallery(args: argparse.Namespace) -> int:
 
 
 def cmd_bench(args: argparse.Namespace) -> int:
-    from . import bench
+    from .bench import dr_cases as bench
 
     if not 1 <= args.repeats <= 100:
         raise DemesError(f"--repeats {args.repeats}: give 1 to 100 runs per case")
-    from .tables import format_table
+    from .common.tables import format_table
 
     if args.fem:
-        from . import bench_fem
+        from .bench import fem as bench_fem
 
         if not all(0 <= k <= 3 for k in args.levels):
             raise DemesError(f"--levels {' '.join(map(str, args.levels))}: give levels 0 to 3")
@@ -286,7 +286,7 @@ def cmd_bench(args: argparse.Namespace) -> int:
         print(json.dumps(fem_rows, indent=1) if args.json else format_table(fem_rows, bench_fem.COLUMNS))
         return 0
     if args.gallery is not None:
-        from . import bench_gallery
+        from .bench import gallery as bench_gallery
 
         names = args.gallery or list(bench_gallery.SCENES)
         for name in names:
@@ -295,7 +295,7 @@ def cmd_bench(args: argparse.Namespace) -> int:
         print(json.dumps(gallery_rows, indent=1) if args.json else format_table(gallery_rows, bench_gallery.COLUMNS))
         return 0
     if args.spectrum:
-        from . import bench_spectrum
+        from .bench import spectrum as bench_spectrum
 
         lams = prestretch_list("--prestretch", args.prestretch or [1.3])
         if len(lams) != 1 or not 0 <= args.refinement <= 2:
@@ -305,7 +305,7 @@ def cmd_bench(args: argparse.Namespace) -> int:
         return 0
     if not args.strip:
         return bench.main(repeats=args.repeats)
-    from . import bench_strip
+    from .bench import strip as bench_strip
 
     if not 0 <= args.refinement <= 3:
         raise DemesError(f"--refinement {args.refinement}: give 0 to 3 (each halves the element size)")

@@ -10,7 +10,7 @@ from __future__ import annotations
 import sys
 from typing import Sequence
 
-from .interrupt import caused_by_interrupt, report_interrupt
+from .common.interrupt import caused_by_interrupt, report_interrupt
 
 
 def main(argv: Sequence[str] | None = None) -> int:

@@ -1,4 +1,4 @@
-"""Execute the runs of a plan on a Dask cluster (:mod:`validation.executor`), resumably, with
+"""Execute the runs of a plan on a Dask cluster (:mod:`validation.common.executor`), resumably, with
 timings and memory.
 
 Every finished state is written at once (``runs/<label>/<lambda>.npz`` and a ``.vtu``), and a
@@ -15,7 +15,7 @@ A run on disk is reused only if it was made from the same computation by the sam
 record holds a key (:func:`run_key`) of the scene after the run's changes, its levels and
 options, and the sources of the packages that make states; a run whose key differs is solved
 again from scratch and its record says why (``resolved``). While ``run_plan`` fills a folder,
-the folder is locked against another process (:mod:`validation.lock`).
+the folder is locked against another process (:mod:`validation.common.lock`).
 """
 
 from __future__ import annotations
@@ -35,13 +35,13 @@ from typing import Any, Callable, Mapping, Sequence
 import scenes
 from results import Result, atomic_write_text, level_label, load_result, save_result, write_pvd
 
-from .executor import DEFAULT_WORKERS, connect, run_tasks
-from .extension import Study
-from .lock import folder_lock
+from ..common.executor import DEFAULT_WORKERS, connect, run_tasks
+from ..common.lock import folder_lock
 from .plan import Plan, Run
+from .study import Study
 
-STATE_CODE = ("dr", "fem_reference", "results", "scenes", "validation/experiment.py",
-              "validation/calibrate.py", "validation/actuate.py", "validation/runner.py")
+STATE_CODE = ("dr", "fem_reference", "results", "scenes", "validation/report/studies/experiment.py",
+              "validation/actuation/calibrate.py", "validation/actuation/actuate.py", "validation/report/runner.py")
 """The sources whose code makes a run's states (packages: every ``*.py`` in them), relative to
 the project root: an edit of any of them makes the runs on disk stale."""
 
@@ -129,7 +129,7 @@ def _polished(found: Result) -> Result:
 
 
 StudyExecute = Callable[[Run, Any, Path], dict[float, Result]]
-"""A study's solver of its own runs (:attr:`validation.extension.Study.execute`)."""
+"""A study's solver of its own runs (:attr:`validation.report.study.Study.execute`)."""
 
 
 def execute(run: Run, scene_data: dict[str, Any], out_dir: str,
@@ -188,7 +188,7 @@ def code_version() -> str:
     """SHA-256 of the sources in :data:`STATE_CODE` as they are on disk (read once per process)."""
     from dr.cache import source_digest
 
-    root = Path(__file__).resolve().parents[1]
+    root = Path(__file__).resolve().parents[2]
     paths = [p for name in STATE_CODE
              for p in ([root / name] if name.endswith(".py") else sorted((root / name).glob("*.py")))]
     return source_digest(paths)
@@ -281,8 +281,8 @@ def run_plan(plan: Plan, scene_data: dict[str, Any], out_dir: Path, workers: int
     """Execute every run of ``plan`` that is not complete on disk; returns all run records.
 
     The runs go to the Dask cluster at ``scheduler`` if given, else to a LocalCluster of
-    ``workers`` processes (``workers <= 1``: this process), see :mod:`validation.executor`.
-    The runs of each study's group are solved by the study (:class:`validation.extension.Study`).
+    ``workers`` processes (``workers <= 1``: this process), see :mod:`validation.common.executor`.
+    The runs of each study's group are solved by the study (:class:`validation.report.study.Study`).
     """
     executes = {study.group: study.execute for study in studies}
     with folder_lock(out_dir, "demes validate"):

@@ -21,9 +21,9 @@ import pandas as pd
 
 from results import Result, atomic_write, atomic_write_text, load_result, save_result, write_pvd
 
-from .executor import DEFAULT_WORKERS, connect, run_tasks
+from ..common.executor import DEFAULT_WORKERS, connect, run_tasks
+from ..common.tables import write_csv
 from .grid import Family, Grid
-from .tables import write_csv
 
 MEASURES = (
     "bending_angle", "apex_x", "apex_y", "apex_z", "mid_height_width",
@@ -204,7 +204,7 @@ def run_study(grid: Grid, out_dir: str | Path, *, scheduler: str | None = None,
     plots
         Draw each measure against each swept field (``figures/<field>.png``).
     """
-    from .study_figures import measure_plots
+    from .figures import measure_plots
 
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)

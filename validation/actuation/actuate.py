@@ -20,8 +20,8 @@ from results import Result, atomic_write_text, write_pvd
 from scenes import Scene, SceneError
 from scenes.electric import FLAT_DEG
 
-from .document import Section, Table, to_html, to_markdown
-from .tables import format_table, write_csv
+from ..common.document import Section, Table, to_html, to_markdown
+from ..common.tables import format_table, write_csv
 
 PAPER_SUBSTANTIAL_V, PAPER_FLAT_V = 1000.0, 2250.0
 """The experiment (docs/actuation.md): substantial change of shape near 1 kV, flat near 2.25 kV."""

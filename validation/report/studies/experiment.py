@@ -1,12 +1,12 @@
 """The validation report's "Against the experiment": voltage sweeps of the strip DEMES with
 Table I's values and calibrated, beside the paper's observations (docs/actuation.md).
 
-The study plugs into ``demes validate`` as :data:`STUDY` (:class:`validation.extension.Study`):
+The study plugs into ``demes validate`` as :data:`STUDY` (:class:`validation.report.study.Study`):
 its runs are part of the validation plan (group 'experiment', :func:`experiment_runs`) and are
-executed by :mod:`validation.runner` through :func:`execute`: a voltage run is one warm-started
-path (:func:`validation.actuate.voltage_states`), so an interrupted one is redone whole, and a
+executed by :mod:`validation.report.runner` through :func:`execute`: a voltage run is one warm-started
+path (:func:`validation.actuation.actuate.voltage_states`), so an interrupted one is redone whole, and a
 complete one is kept. The calibrated run first fits ``membrane.E`` and ``frame.E``
-(:func:`validation.calibrate.fit`) and keeps the fit in ``calibration.json``. Nothing here
+(:func:`validation.actuation.calibrate.fit`) and keeps the fit in ``calibration.json``. Nothing here
 solves at analysis time: :func:`analyse` reads the stored states.
 """
 
@@ -22,15 +22,15 @@ import numpy as np
 from results import Result, atomic_write_text, level_label, load_result, save_result, write_pvd
 from scenes import Scene
 
-from .actuate import (EXPERIMENT, PAPER_FLAT_V, PAPER_STEEP_STROKE, PAPER_SUBSTANTIAL_V, UNITS, characteristics,
-                      compare, row, voltage_states)
-from .actuation_figures import energy_stroke, stroke_voltage
-from .calibrate import CHECK_VOLTAGES, Calibration, describe, fit, flattening_voltage, residuals
-from .document import Section, Table
-from .extension import Study
-from .plan import MATCHED, REFERENCE, Plan, Run
-from .tables import write_csv
-from .verdicts import Verdict
+from ...actuation.actuate import (EXPERIMENT, PAPER_FLAT_V, PAPER_STEEP_STROKE, PAPER_SUBSTANTIAL_V, UNITS,
+                                   characteristics, compare, row, voltage_states)
+from ...actuation.calibrate import CHECK_VOLTAGES, Calibration, describe, fit, flattening_voltage, residuals
+from ...actuation.figures import energy_stroke, stroke_voltage
+from ...common.document import Section, Table
+from ...common.tables import write_csv
+from ..plan import MATCHED, REFERENCE, Plan, Run
+from ..study import Study
+from ..verdicts import Verdict
 
 GROUP = "experiment"
 """The plan's group of the voltage runs."""

@@ -111,4 +111,4 @@ MESH_ERROR_TABLE = (
     ("mesh_error", "mesh error", ""),
 )
 """The columns ``demes solve`` prints: the state on the finest mesh, the extrapolated bending
-angle and the error estimates (validation/mesh_error.py)."""
+angle and the error estimates (validation/solve/mesh_error.py)."""

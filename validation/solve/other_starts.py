@@ -19,7 +19,8 @@ from results import Result
 from scenes import SceneError
 from scenes.mesh import membrane_mesh, transfer_linear
 
-from .analysis import SECOND_STATE
+SECOND_STATE = 1e-3
+"""Frame-curve RMS distance (/side) from the path's state above which a found state is another."""
 
 LOWER = 1e-6
 """A state found is lower than the path's if its energy is below by more than this fraction of

@@ -9,7 +9,7 @@ from tqdm import tqdm
 
 from results import SUMMARY_COLUMNS, Result, level_label, write_pvd
 
-from .tables import STATE_TABLE, format_table, write_csv
+from ..common.tables import STATE_TABLE, format_table, write_csv
 
 
 def run_sweep(

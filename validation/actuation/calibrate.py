@@ -32,8 +32,7 @@ from scenes import Scene, SceneError
 from scenes.electric import mounted_thickness
 
 from .actuate import PAPER_FLAT_V, PAPER_SUBSTANTIAL_V, Characteristics, characteristics, row
-from .electromechanics import (equibiaxial_mechanical_stress, flat_film_tension, gent_jm,
-                               zero_tension_voltage)
+from .electromechanics import equibiaxial_mechanical_stress, flat_film_tension, gent_jm, zero_tension_voltage
 
 PUBLISHED_VHB_MU = (0.013, 0.015)
 """Long-term shear modulus of VHB 4905/4910 in published fits, MPa."""

@@ -17,7 +17,7 @@ import numpy as np
 import dr
 from dr import stability
 
-from .bench_strip import strip_scene
+from .strip import strip_scene
 
 COLUMNS = (
     ("masses", "masses", ""),

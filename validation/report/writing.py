@@ -1,6 +1,6 @@
 """The validation report: report.md, a self-contained index.html, and CSV/JSON of every number.
 
-The report is one document (:mod:`validation.document`) rendered as Markdown and as HTML.
+The report is one document (:mod:`validation.common.document`) rendered as Markdown and as HTML.
 """
 
 from __future__ import annotations
@@ -14,15 +14,14 @@ import numpy as np
 
 from results import ENERGY_DEFINITION, atomic_write_text, level_label
 
+from ..common.document import Section, Table, to_html, to_markdown
+from ..common.tables import write_csv
 from .analysis import BRANCH_JUMP, SECOND_STATE, THRESHOLDS, Analysis
 from .beam_energy import mismatch_sentence
 from .compare import METRIC_UNITS
-from .document import Section, Table, to_html, to_markdown
-from .extension import Study
-from .tables import write_csv
+from .study import Study
 from .verdicts import COLUMNS as VERDICT_COLUMNS
 from .verdicts import verdicts
-
 
 HEADLINE = (
     ("prestretch", "lambda [-]", "level"),
@@ -267,7 +266,7 @@ DATA_TABLES = (
 def write_report(a: Analysis, out_dir: Path, figures: dict[str, Path | None], title: str, *,
                  studies: Sequence[Study] = ()) -> dict[str, Path]:
     """Write report.md, index.html and the CSV/JSON tables, each study's tables and section
-    after the validation's own (:class:`validation.extension.Study`); returns their paths."""
+    after the validation's own (:class:`validation.report.study.Study`); returns their paths."""
     files = write_tables(a, out_dir)
     sections = [build(a, figures) for build in SECTIONS]
     rows = verdicts(a)
@@ -301,7 +300,7 @@ def write_document(sections: list[Section], title: str, out_dir: Path) -> dict[s
 
 
 def _verdict_section(rows: list[dict[str, str]]) -> Section:
-    """One row per claim (:class:`validation.verdicts.Verdict` as a dict): what was measured and
+    """One row per claim (:class:`validation.report.verdicts.Verdict` as a dict): what was measured and
     what it says; the detail follows."""
     return Section("Verdicts", ["Each claim the validation tests, what it measured and the verdict; the sections "
                                 "below give the detail.", Table(VERDICT_COLUMNS, rows)])

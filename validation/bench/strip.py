@@ -20,7 +20,7 @@ import fem_reference
 import scenes
 from results import Result
 
-from .bench import timed
+from .dr_cases import timed
 
 NETS = ("triangles", "links", "clustered")
 DAMPINGS = ("kinetic", "viscous", "fire")

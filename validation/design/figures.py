@@ -6,9 +6,9 @@ from pathlib import Path
 
 import pandas as pd
 
-from .plotting import plt, save_figure
+from ..common.plotting import plt, save_figure
+from ..common.tables import header
 from .grid import Grid
-from .tables import header
 
 PLOTTED = ("bending_angle", "apex_z", "mid_height_width", "energy_total", "iterations", "wall_time")
 """The measures plotted against every swept field."""

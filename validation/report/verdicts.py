@@ -1,7 +1,7 @@
 """The report's verdicts: one row per claim, what was measured and what it says.
 
-Each claim is a small function of the :class:`validation.analysis.Analysis`; a study plugged in
-beside the validation (:class:`validation.extension.Study`) adds its own rows. A claim whose
+Each claim is a small function of the :class:`validation.report.analysis.Analysis`; a study plugged in
+beside the validation (:class:`validation.report.study.Study`) adds its own rows. A claim whose
 runs are missing from the study says "not measured" rather than leaving its row out.
 """
 
@@ -25,7 +25,7 @@ class Verdict(NamedTuple):
 
 
 COLUMNS = (("claim", "claim", ""), ("measured", "measured", ""), ("verdict", "verdict", ""))
-"""The verdict table's columns (:class:`validation.document.Table`)."""
+"""The verdict table's columns (:class:`validation.common.document.Table`)."""
 
 NOT_MEASURED = "not measured"
 

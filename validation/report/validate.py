@@ -1,6 +1,6 @@
 """``demes validate``: run the plan, analyse it, draw it, write the report.
 
-Here the studies that plug into the validation (:class:`validation.extension.Study`) are listed
+Here the studies that plug into the validation (:class:`validation.report.study.Study`) are listed
 and handed to every stage.
 """
 
@@ -11,12 +11,13 @@ from pathlib import Path
 
 import scenes
 
-from . import experiment, figures
+from . import figures
 from .analysis import Analysis, analyse
-from .extension import Study
 from .plan import build_plan
-from .report import write_report
 from .runner import run_plan, stale_runs
+from .studies import experiment
+from .study import Study
+from .writing import write_report
 
 STUDIES: tuple[Study, ...] = (experiment.STUDY,)
 """The studies of ``demes validate`` beside its own comparisons, in the report's order."""

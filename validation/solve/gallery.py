@@ -5,7 +5,7 @@ Each scene is solved by DR's membrane triangles and the FEM's P1 elements on the
 pre-stretch path from the flat state. A row per scene and pre-stretch says where the two
 agree (:data:`ANGLE_AGREES` deg, :data:`ENERGY_AGREES` relative energy), each state's branch
 and stability, the jumps on the way, and each solver's time. Scenes fan out over a Dask
-cluster (:mod:`validation.executor`); each scene's states are written as they end.
+cluster (:mod:`validation.common.executor`); each scene's states are written as they end.
 """
 
 from __future__ import annotations
@@ -19,8 +19,8 @@ import numpy as np
 import scenes
 from results import Result, atomic_write_text, level_label
 
-from .executor import connect, run_tasks
-from .tables import write_csv
+from ..common.executor import connect, run_tasks
+from ..common.tables import write_csv
 
 GALLERY = ("square", "tall_rectangle", "wide_rectangle", "pentagon", "hexagon", "octagon", "large_triangle",
            "asymmetric_quadrilateral", "thick_film_triangle")

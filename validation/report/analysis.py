@@ -10,18 +10,15 @@ from typing import Any, Sequence
 
 import numpy as np
 
+from fem_reference import richardson
 from results import Result
 
-from fem_reference import richardson
-
+from ..solve.levels import not_reached
+from ..solve.other_starts import SECOND_STATE
 from .compare import CURVE_SAMPLES, Reference, build_reference, state_metrics
-from .extension import Study
 from .plan import NETS, Plan, Run
 from .runner import load_states, run_record
-from .sweep import not_reached
-
-SECOND_STATE = 1e-3
-"""Frame-curve RMS distance (/side) from the path's state above which a found state is another."""
+from .study import Study
 
 THRESHOLDS = (0.01, 0.001)
 """Shape errors (fraction of the side length) of the 'time to reach' table: 1 % and 0.1 %."""
@@ -29,7 +26,7 @@ THRESHOLDS = (0.01, 0.001)
 
 @dataclass
 class Analysis:
-    """All numbers of a validation report (rows are dicts; units in validation.compare)."""
+    """All numbers of a validation report (rows are dicts; units in validation.report.compare)."""
 
     plan: Plan
     states: dict[str, dict[float, Result]]
@@ -50,7 +47,7 @@ class Analysis:
     net_limits: dict[str, Reference] = field(default_factory=dict)  # the nets' own refined limits
     limits: list[dict[str, Any]] = field(default_factory=list)  # DR's and the FEM's limits side by side
     second_states: list[dict[str, Any]] = field(default_factory=list)  # the search for other stable states
-    studies: dict[str, Any] = field(default_factory=dict)  # each study's numbers by its name (validation.extension)
+    studies: dict[str, Any] = field(default_factory=dict)  # each study's numbers by its name (validation.report.study)
     stale: list[str] = field(default_factory=list)  # complete runs made with another scene, settings or code
 
     @property
@@ -80,7 +77,7 @@ class Analysis:
 
 def analyse(plan: Plan, out_dir: Path, *, studies: Sequence[Study] = ()) -> Analysis:
     """Read every run of ``plan`` from ``out_dir`` and compute the report's tables, and each
-    study's numbers (:class:`validation.extension.Study`; a study with nothing to report is left out)."""
+    study's numbers (:class:`validation.report.study.Study`; a study with nothing to report is left out)."""
     states = {r.label: load_states(out_dir / "runs" / r.label, r.prestretches) for r in plan.runs if not r.voltages}
     records = {r.label: run_record(out_dir / "runs" / r.label) or {} for r in plan.runs}
     references, branch_rows = fem_references(plan, states)

@@ -23,8 +23,8 @@ import dr  # noqa: E402
 import scenes  # noqa: E402
 from results import Result  # noqa: E402
 
-from .closed_forms import elastica_cantilever  # noqa: E402
-from .tables import format_table  # noqa: E402
+from ..common.closed_forms import elastica_cantilever  # noqa: E402
+from ..common.tables import format_table  # noqa: E402
 
 EA, EI, SEGMENTS, LENGTH, ALPHA = 1300.0, 0.78, 40, 80.0, 3.0
 

@@ -2,7 +2,7 @@
 
 For each scene (default :data:`SCENES`: a rectangle of aspect 0.5 and the quadrilateral without
 mirror symmetry), DR's triangles and the FEM's P1 elements on one mesh
-(:func:`validation.gallery.gallery_scene`) follow the gallery's path from the flat state
+(:func:`validation.solve.gallery.gallery_scene`) follow the gallery's path from the flat state
 (1.1, then 1.3). Per solver: the median wall time of the whole path, its iterations (DR's
 steps, the FEM's Newton iterations), the cost of one (DR: ns per node-step; the FEM: ms per
 Newton iteration), the free DOFs, and the last state's angle and energy, with the DR - FEM
@@ -19,8 +19,8 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 import dr  # noqa: E402
 import fem_reference  # noqa: E402
 
-from .bench import timed  # noqa: E402
-from .gallery import PRESTRETCHES, gallery_scene  # noqa: E402
+from ..solve.gallery import PRESTRETCHES, gallery_scene  # noqa: E402
+from .dr_cases import timed  # noqa: E402
 
 SCENES = ("wide_rectangle", "asymmetric_quadrilateral")
 

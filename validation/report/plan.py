@@ -1,7 +1,7 @@
 """What ``demes validate`` runs: solver sweeps, the speed-against-error study and hard cases.
 
 A run is one solver on one variant of the scene over a list of pre-stretches. The plan lists
-runs only; executing them is :mod:`validation.runner`, comparing them :mod:`validation.compare`.
+runs only; executing them is :mod:`validation.report.runner`, comparing them :mod:`validation.report.compare`.
 """
 
 from __future__ import annotations
@@ -48,10 +48,10 @@ class Run:
     cold
         Solve each pre-stretch from scratch (timings of the speed study) instead of a sweep.
     voltages
-        A voltage run (group 'experiment', :mod:`validation.experiment`): these voltages (V) at
+        A voltage run (group 'experiment', :mod:`validation.report.studies.experiment`): these voltages (V) at
         the scene's pre-stretch, one warm-started path; ``prestretches`` is then empty.
     calibrate
-        Fit the scene to the experiment before the voltage run (:func:`validation.calibrate.fit`).
+        Fit the scene to the experiment before the voltage run (:func:`validation.actuation.calibrate.fit`).
     polish
         Newton-polish each (cold) DR state with the FEM on the same mesh
         (:func:`fem_reference.solve_from`) and keep the FEM's state with its stability: the
@@ -150,7 +150,7 @@ def settings(quick: bool) -> Settings:
 
 def build_plan(quick: bool = False, *, studies: Sequence[Any] = ()) -> Plan:
     """The full plan (100-200 % in 10 % steps, FEM P2 levels r0-r2, r3 at 160-170 %), or the
-    quick one (:func:`settings`), with the runs of each study (:class:`validation.extension.Study`)."""
+    quick one (:func:`settings`), with the runs of each study (:class:`validation.report.study.Study`)."""
     s = settings(quick)
     runs = [*main_runs(s), *reference_runs(s), *budget_runs(s), *speed_dr_runs(s), *speed_graded_dr_runs(s),
             *drconv_runs(s),

@@ -17,7 +17,7 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 import fem_reference  # noqa: E402
 import scenes  # noqa: E402
 
-from .bench import timed  # noqa: E402
+from .dr_cases import timed  # noqa: E402
 
 ELEMENTS = ("P1", "P2")
 

@@ -8,8 +8,8 @@ from typing import Sequence
 
 import numpy as np
 
+from ..common.plotting import label_axes, plt, save_figure
 from .actuate import PAPER_FLAT_V, PAPER_STEEP_STROKE, PAPER_SUBSTANTIAL_V, characteristics
-from .plotting import label_axes, plt, save_figure
 
 COLORS = {"dr": "tab:blue", "fem": "k"}
 
@@ -44,7 +44,7 @@ def stroke_voltage(runs: dict[str, Sequence[dict]], path: Path) -> Path:
 
 def energy_stroke(runs: dict[str, Sequence[dict]], path: Path) -> Path:
     """E_cap and E_DR (film, frame) against stroke per solver; the paper's steep rises marked,
-    and the model's (:func:`validation.actuate.steep_rise`, a triangle on E_cap)."""
+    and the model's (:func:`validation.actuation.actuate.steep_rise`, a triangle on E_cap)."""
     fig, ax = plt.subplots(figsize=(6.4, 4.2))
     for solver, rows in runs.items():
         stroke, c = _series(rows, "stroke"), COLORS.get(solver)

@@ -9,8 +9,8 @@ import numpy as np
 
 from results import atomic_write, render
 
+from ..common.plotting import label_axes, plt, save_figure
 from .analysis import THRESHOLDS, Analysis
-from .plotting import label_axes, plt, save_figure
 
 STYLE = {
     "dr_paper": dict(color="tab:red", marker="s", label="DR, paper's model (clustered, Table I frame)"),

@@ -1,9 +1,9 @@
 """How a study plugs into ``demes validate``: one record of hooks, one per stage.
 
-The validation's own comparisons are built into :mod:`validation.plan`,
-:mod:`validation.analysis` and :mod:`validation.report`. A study beside them (the voltage runs
-against the experiment, :mod:`validation.experiment`) owns one group of runs and gives each stage
-a hook; :mod:`validation.validate` lists the studies and hands them to every stage, so no stage
+The validation's own comparisons are built into :mod:`validation.report.plan`,
+:mod:`validation.report.analysis` and :mod:`validation.report.writing`. A study beside them (the voltage runs
+against the experiment, :mod:`validation.report.studies.experiment`) owns one group of runs and gives each stage
+a hook; :mod:`validation.report.validate` lists the studies and hands them to every stage, so no stage
 imports a study.
 """
 
@@ -16,7 +16,7 @@ from typing import Any, Callable
 from results import Result
 from scenes import Scene
 
-from .document import Section
+from ..common.document import Section
 from .plan import Plan, Run
 
 
@@ -27,7 +27,7 @@ class Study:
     Attributes
     ----------
     name
-        Key of its numbers in :attr:`validation.analysis.Analysis.studies`.
+        Key of its numbers in :attr:`validation.report.analysis.Analysis.studies`.
     group
         The group of its runs in the plan: the runner hands these runs to ``execute``.
     runs
@@ -44,7 +44,7 @@ class Study:
         ``section(numbers, figures)``: its section of the report (``figures``: all of them by name).
     verdicts
         ``verdicts(numbers)``: its rows of the report's verdict table
-        (:class:`validation.verdicts.Verdict`).
+        (:class:`validation.report.verdicts.Verdict`).
     """
 
     name: str
