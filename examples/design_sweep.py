@@ -13,7 +13,7 @@ from pathlib import Path
 
 from scenes import tomllib
 from validation.design.grid import grid_from_dict
-from validation.design.sweep import run_study
+from validation.design.sweep import run_design_sweep
 
 if __name__ == "__main__":  # the LocalCluster's worker processes import this file again
     path = Path(__file__).with_name("design_grid.toml")
@@ -25,7 +25,7 @@ if __name__ == "__main__":  # the LocalCluster's worker processes import this fi
     scheduler = sys.argv[sys.argv.index("--scheduler") + 1] if "--scheduler" in sys.argv else None
     grid = grid_from_dict(data, name=path.stem + ("_quick" if quick else ""), base_dir=path.parent)
     workers = int(sys.argv[sys.argv.index("--workers") + 1]) if "--workers" in sys.argv else 2
-    study = run_study(grid, Path("out") / grid.name, scheduler=scheduler, workers=workers)
+    study = run_design_sweep(grid, Path("out") / grid.name, scheduler=scheduler, workers=workers)
 
     angles = study.table.pivot_table(index=["frame.thickness", "membrane.thickness"], columns="prestretch",
                                      values="bending_angle")

@@ -3,8 +3,6 @@ problem, its table, CSV and picture."""
 
 import csv
 
-import pytest
-
 from validation.cli import main
 from validation.solve.gallery import GALLERY, gallery_scene
 

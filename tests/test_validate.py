@@ -14,12 +14,12 @@ import validation.report.validate
 from results import load_result, save_result
 from validation.cli import main
 from validation.common.document import Section
-from validation.report.study import Study
-from validation.report.plan import MATCHED, REFERENCE, Run, build_plan
 from validation.common.tables import write_csv
+from validation.report.study import Study
+from validation.report.plan import MATCHED, REFERENCE, Run
 from validation.report.verdicts import Verdict
 from validation.report.runner import computation_key
-from validation.report.validate import validate
+from validation.report.validate import validate, validation_plan
 
 
 def read_csv(path):
@@ -66,7 +66,7 @@ def test_the_report_leads_with_verdicts_that_restate_its_tables(report):
 
 def test_report_numbers_equal_direct_solver_calls(report):
     out, _, _ = report
-    plan = build_plan(quick=True)
+    plan = validation_plan(quick=True)
     rows = {float(r["prestretch"]): r for r in read_csv(out / "headline.csv")}
     base = scenes.load("demes_paper")
     coarse = {"mesh.divisions": 8}
@@ -109,9 +109,9 @@ def test_reference_table_and_level_costs_restate_the_levels(report):
 def test_dr_limit_is_the_extrapolation_of_its_own_refinement(report):
     out, _, _ = report
     states = read_csv(out / "states.csv")
-    chain = [r.label for r in build_plan(quick=True).by_group("drconv")]
+    chain = [r.label for r in validation_plan(quick=True).by_group("drconv")]
     limits = read_csv(out / "limits.csv")
-    assert [float(r["prestretch"]) for r in limits] == list(build_plan(quick=True).sweep)
+    assert [float(r["prestretch"]) for r in limits] == list(validation_plan(quick=True).sweep)
     for row in limits:
         lam = float(row["prestretch"])
         angles = [float(next(s for s in states if s["run"] == label and float(s["prestretch"]) == lam)["bending_angle [deg]"])
@@ -172,7 +172,7 @@ def test_runs_that_compute_the_same_are_solved_once(report):
     """The quick plan's twins (one computation under two labels) hold the same states, one
     record names the other, and a one-level DR sweep is the cold solve the key takes it for."""
     out, _, _ = report
-    plan = build_plan(quick=True)
+    plan = validation_plan(quick=True)
     same = {}
     for run in plan.runs:
         same.setdefault(computation_key(run, scenes.load("demes_paper").to_dict()), []).append(run)
@@ -197,8 +197,7 @@ def test_report_only_needs_runs(tmp_path, capsys):
 
 
 def test_csv_has_a_column_for_every_key_of_every_row(tmp_path):
-    from validation.common.tables import write_csv
-
+    
     rows = [{"prestretch": 1.0, "r0": 0.0, "r1": 0.0}, {"prestretch": 1.1, "r0": 48.9, "r1": 48.7, "r2": 48.698}]
     write_csv(tmp_path / "t.csv", rows)
     back = read_csv(tmp_path / "t.csv")
@@ -279,7 +278,7 @@ def test_second_states_are_polished_by_the_fem_on_the_same_mesh(report):
     state is called stable exactly when its lowest eigenvalue is not negative."""
     out = report[0]
     rows = read_csv(out / "second_states.csv")
-    assert [float(r["prestretch"]) for r in rows] == list(build_plan(quick=True).get("second_states").prestretches)
+    assert [float(r["prestretch"]) for r in rows] == list(validation_plan(quick=True).get("second_states").prestretches)
     scene = scenes.load("demes_paper")
     neutral = 1e-6 * scene.membrane.E * scene.membrane.thickness / scene.outline.side_length**2
     for r in rows:
@@ -306,7 +305,7 @@ def test_graded_speed_rows_are_on_the_graded_mesh(report):
     assert fem["status"] == dr_row["status"] == "converged"
 
 
-def _toy_runs(*, coarse, quick):
+def _toy_runs(settings):
     return [Run("toy_flat", "dr", {"mesh.divisions": 6, "dr.membrane_net": "triangles"}, prestretches=(1.1,),
                 group="toy", title="toy: DR at 1.1 on 6 divisions")]
 
@@ -317,16 +316,16 @@ def _toy_execute(run, scene, run_dir):
     return {run.prestretches[0]: res}
 
 
-def _toy_analyse(plan, out_dir):
+def _toy_analyse(a, out_dir):
     path = out_dir / "runs" / "toy_flat" / "state.npz"
     return load_result(path) if path.exists() else None
 
 
 TOY = Study(
-    name="toy", group="toy", runs=_toy_runs, execute=_toy_execute, analyse=_toy_analyse,
-    figures=lambda res, fig_dir: {},
-    tables=lambda res, out: {"toy": write_csv(out / "toy.csv", [{"bending_angle": res.bending_angle}])},
+    name="toy", runs=_toy_runs, analyse=_toy_analyse,
     section=lambda res, figs: Section("Toy study", [f"theta {res.bending_angle:.3f} deg"]),
+    tables=lambda res: {"toy": [{"bending_angle": res.bending_angle}]},
+    group="toy", execute=_toy_execute,
     verdicts=lambda res: [Verdict("The toy curls at 1.1", f"{res.bending_angle:.3f} deg",
                                   "holds" if res.bending_angle > 1 else "does not hold")])
 
@@ -345,6 +344,7 @@ def test_a_report_study_is_one_module_and_one_registry_line(report, tmp_path, mo
     md = (out / "report.md").read_text()
     assert f"## Toy study\n\ntheta {direct.bending_angle:.3f} deg" in md
     assert float(read_csv(out / "toy.csv")[0]["bending_angle [deg]"]) == direct.bending_angle
+    assert json.loads((out / "metrics.json").read_text())["toy"] == [{"bending_angle": direct.bending_angle}]
     rows = read_csv(out / "verdicts.csv")
     assert rows[-1] == {"claim": "The toy curls at 1.1", "measured": f"{direct.bending_angle:.3f} deg",
                         "verdict": "holds"}

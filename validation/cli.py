@@ -1,5 +1,23 @@
-"""The ``demes`` command line: solve (DR), fem (reference), actuate, calibrate, sweep (design grid), bench,
-validate."""
+"""The ``demes`` command line; each command's route through the packages:
+
+=========  =================================================================================
+solve      ``dr.sweep`` or ``fem_reference.sweep`` per mesh level, written state by state
+           (:func:`validation.solve.levels.record_states`), the discretisation error between
+           levels (:mod:`validation.solve.mesh_error`) and other stable states
+           (:mod:`validation.solve.other_starts`)
+fem        solve with the FEM
+actuate    :mod:`validation.actuation.actuate` (``dr.actuation`` / ``fem_reference.actuation``)
+calibrate  :mod:`validation.actuation.calibrate`
+validate   :mod:`validation.report.validate`: plan, runner, analysis, studies, report
+sweep      :mod:`validation.design.sweep` over a grid (:mod:`validation.design.grid`)
+gallery    :mod:`validation.solve.gallery`
+bench      :mod:`validation.bench`
+=========  =================================================================================
+
+Each command imports the solvers and sub-packages it uses inside its function: importing
+``dr`` (numba) takes about 2 s and ``fem_reference`` (scikit-fem) about 2 s, which a command
+that needs neither, or ``--help``, does not pay.
+"""
 
 from __future__ import annotations
 
@@ -18,7 +36,7 @@ from scenes.fields import prestretch_list
 from .common.executor import DEFAULT_WORKERS
 from .common.interrupt import caused_by_interrupt, report_interrupt
 from .design.grid import DEFAULT_MAX_POINTS
-from .solve.levels import contact_note, print_table, run_sweep, state_notes
+from .solve.levels import contact_note, print_table, record_states, state_notes
 
 
 def _parse_value(text: str) -> Any:
@@ -93,7 +111,7 @@ def _run_solver(args: argparse.Namespace, solver: str) -> int:
         refinement = scene.fem.refinement
         states = fem_reference.sweep(scene, lams, refinement=refinement)
         label = f"fem_{scene.frame.model}_r{refinement}"
-    results = run_sweep(states, lams, out, label, progress=not args.no_progress)
+    results = record_states(states, lams, out, label, progress=not args.no_progress)
     title = f"{scene.name}: {solver.upper()}, frame model '{scene.frame.model}'"
     text = print_table(results, title) + contact_note(results) + state_notes(results, lams)
     atomic_write_text(out / f"{label}.txt", text + "\n")
@@ -144,7 +162,7 @@ def cmd_solve(args: argparse.Namespace) -> int:
         return errors[id(res)].columns()
 
     label = f"{args.solver}_{scene.frame.model}"
-    results = run_sweep(states(), lams, out, label, progress=not args.no_progress, extra=columns,
+    results = record_states(states(), lams, out, label, progress=not args.no_progress, extra=columns,
                         units=mesh_error.UNITS)
     title = (f"{scene.name}: {what}, frame model '{scene.frame.model}', mesh.divisions "
              f"{' '.join(map(str, levels))} (states on the finest; theta* and +- by Richardson over them)")
@@ -225,7 +243,7 @@ def cmd_validate(args: argparse.Namespace) -> int:
 
 def cmd_sweep(args: argparse.Namespace) -> int:
     from .design.grid import GridError, load_grid
-    from .design.sweep import run_study
+    from .design.sweep import run_design_sweep
 
     try:
         grid = load_grid(args.grid, solver=args.solver, max_points=args.max_points)
@@ -235,7 +253,7 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     if not 1 <= args.workers <= 64:
         raise DemesError(f"--workers {args.workers}: give 1 to 64 worker processes")
     out = writable_folder(args.out or f"out/sweep/{grid.name}")
-    study = run_study(grid, out, scheduler=args.scheduler, workers=args.workers, vtk=args.vtk,
+    study = run_design_sweep(grid, out, scheduler=args.scheduler, workers=args.workers, vtk=args.vtk,
                       progress=not args.no_progress)
     counts = study.table["status"].value_counts()
     print(f"{grid.n_points} points ({len(grid.families)} paths x {len(grid.prestretches)} pre-stretches), "

@@ -40,8 +40,8 @@ NOT_REACHED = "not_reached"
 
 
 @dataclass(frozen=True)
-class Study:
-    """What :func:`run_study` did: the table (one row per grid point, grid order), the families
+class DesignSweep:
+    """What :func:`run_design_sweep` did: the table (one row per grid point, grid order), the families
     it solved in this call, the ones that failed (key -> error) and the files it wrote."""
 
     table: pd.DataFrame
@@ -188,9 +188,9 @@ def _recorded(grid: Grid, out_dir: Path) -> int:
     return sum(record_path(family_dir(out_dir, f), lam).exists() for f in grid.families for lam in f.prestretches)
 
 
-def run_study(grid: Grid, out_dir: str | Path, *, scheduler: str | None = None,
-              workers: int = DEFAULT_WORKERS, vtk: bool = False, plots: bool = True,
-              progress: bool = True) -> Study:
+def run_design_sweep(grid: Grid, out_dir: str | Path, *, scheduler: str | None = None,
+                     workers: int = DEFAULT_WORKERS, vtk: bool = False, plots: bool = True,
+                     progress: bool = True) -> DesignSweep:
     """Solve every point of ``grid`` without a record in ``out_dir``, then write the table
     (``<grid>.csv``, ``<grid>.parquet``) and the plots (``figures/``).
 
@@ -225,4 +225,4 @@ def run_study(grid: Grid, out_dir: str | Path, *, scheduler: str | None = None,
     files = write_table(table, out, grid.name)
     if plots:
         files.update(measure_plots(table, grid, out / "figures"))
-    return Study(table, tuple(solved), failed, files, time.perf_counter() - t0)
+    return DesignSweep(table, tuple(solved), failed, files, time.perf_counter() - t0)

@@ -1,9 +1,10 @@
-"""From the runs on disk to the report's numbers: headline, state metrics, speed against error,
-error budget and hard cases. Everything here reads stored states; nothing is solved."""
+"""From the runs on disk to the report's core numbers: headline, state metrics, the FEM reference
+levels and branches, first contact, DR's and the FEM's refined limits; then each study's numbers
+(:class:`validation.report.study.Study`). Everything here reads stored states; nothing is solved."""
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from itertools import takewhile
 from pathlib import Path
 from typing import Any, Sequence
@@ -13,15 +14,13 @@ import numpy as np
 from fem_reference import richardson
 from results import Result
 
-from ..solve.levels import not_reached
-from ..solve.other_starts import SECOND_STATE
-from .compare import CURVE_SAMPLES, Reference, build_reference, state_metrics
-from .plan import NETS, Plan, Run
+from .compare import CURVE_SAMPLES, Reference, build_reference, curve_distance, state_metrics
+from .plan import Plan, Run
 from .runner import load_states, run_record
 from .study import Study
 
-THRESHOLDS = (0.01, 0.001)
-"""Shape errors (fraction of the side length) of the 'time to reach' table: 1 % and 0.1 %."""
+STATE_GROUPS = ("sweep", "reference", "drconv")
+"""The core's groups of runs whose states are rows of the states table."""
 
 
 @dataclass
@@ -35,18 +34,12 @@ class Analysis:
     dr_limits: dict[float, Reference]  # DR's own refined limit per pre-stretch (the drconv runs)
     state_rows: list[dict[str, Any]] = field(default_factory=list)
     headline: list[dict[str, Any]] = field(default_factory=list)
-    speed_rows: list[dict[str, Any]] = field(default_factory=list)
-    reach: list[dict[str, Any]] = field(default_factory=list)
-    budget: list[dict[str, Any]] = field(default_factory=list)
-    hard: list[dict[str, Any]] = field(default_factory=list)
     reference_rows: list[dict[str, Any]] = field(default_factory=list)
     branch_rows: list[dict[str, Any]] = field(default_factory=list)
     first_contact: list[dict[str, Any]] = field(default_factory=list)
     reference_table: list[dict[str, Any]] = field(default_factory=list)
     level_costs: list[dict[str, Any]] = field(default_factory=list)
-    net_limits: dict[str, Reference] = field(default_factory=dict)  # the nets' own refined limits
     limits: list[dict[str, Any]] = field(default_factory=list)  # DR's and the FEM's limits side by side
-    second_states: list[dict[str, Any]] = field(default_factory=list)  # the search for other stable states
     studies: dict[str, Any] = field(default_factory=dict)  # each study's numbers by its name (validation.report.study)
     stale: list[str] = field(default_factory=list)  # complete runs made with another scene, settings or code
 
@@ -84,17 +77,13 @@ def analyse(plan: Plan, out_dir: Path, *, studies: Sequence[Study] = ()) -> Anal
     dr_limits = dr_references(plan, states)
     a = Analysis(plan, states, records, references, dr_limits, branch_rows=branch_rows)
     a.first_contact = first_contact(plan, states)
-    _state_rows(a)
+    _state_rows(a, STATE_GROUPS + tuple(g for study in studies for g in study.state_groups))
     _headline(a)
-    _speed(a)
-    _budget(a)
-    _hard(a)
     _reference_rows(a)
     _level_costs(a)
     _limits(a)
-    _second_states(a)
     for study in studies:
-        numbers = study.analyse(plan, out_dir)
+        numbers = study.analyse(a, out_dir)
         if numbers is not None:
             a.studies[study.name] = numbers
     return a
@@ -133,10 +122,6 @@ def dr_references(plan: Plan, states: dict[str, dict[float, Result]]) -> dict[fl
     return dr_limits
 
 
-def _speed_label(n: int, tol: float) -> str:
-    return f"speed_dr_n{n}_tol{tol:.0e}"
-
-
 def _row(a: Analysis, run: Run, lam: float, res: Result) -> dict[str, Any]:
     row = {"run": run.label, "group": run.group, "title": run.title}
     row.update(state_metrics(res, a.references.get(lam)))
@@ -144,9 +129,9 @@ def _row(a: Analysis, run: Run, lam: float, res: Result) -> dict[str, Any]:
     return row
 
 
-def _state_rows(a: Analysis) -> None:
+def _state_rows(a: Analysis, groups: tuple[str, ...]) -> None:
     for run in a.plan.runs:
-        if run.group in ("sweep", "reference", "budget", "drconv", "netconv"):
+        if run.group in groups:
             for lam, res in sorted(a.states[run.label].items()):
                 a.state_rows.append(_row(a, run, lam, res))
 
@@ -174,161 +159,6 @@ def _headline(a: Analysis) -> None:
         fem_fine = a.states[f"fem_r{ref.levels[-1]}"].get(lam) if ref else None
         row["time_fem_finest"] = fem_fine.wall_time if fem_fine else np.nan
         a.headline.append(row)
-
-
-def _speed(a: Analysis) -> None:
-    """Wall time against shape error at the speed pre-stretch, and the time to reach 1 %, 0.1 %."""
-    lam = a.plan.speed_prestretch
-    ref = a.references.get(lam)
-    for run in a.plan.by_group("speed"):
-        res = a.states[run.label].get(lam)
-        if res is None:
-            continue
-        m = state_metrics(res, ref)
-        a.speed_rows.append({
-            "run": run.label, "method": run.solver, "title": run.title,
-            "mesh": run.changes.get("mesh.divisions", np.nan), "grading": run.changes.get("mesh.grading", 1.0),
-            "tolerance": run.changes.get("dr.tolerance", np.nan),
-            "refinement": run.refinement if run.solver == "fem" else run.changes.get("fem.refinement", np.nan),
-            "free_dofs": res.info.get("n_free_dofs", np.nan),
-            "wall_time": res.wall_time, "iterations": res.iterations, "status": res.status,
-            "shape_rms": m.get("shape_rms", np.nan), "bending_angle_diff": m.get("bending_angle_diff", np.nan),
-            "peak_memory": a.records.get(run.label, {}).get("peak_memory_mb", np.nan),
-        })
-    for threshold in THRESHOLDS:
-        row: dict[str, Any] = {"shape_error": threshold}
-        for method in ("dr", "fem"):
-            ok = [r["wall_time"] for r in a.speed_rows
-                  if r["method"] == method and r["status"] == "converged" and r["shape_rms"] <= threshold]
-            row[f"time_{method}"] = min(ok) if ok else np.nan
-        row["ratio_fem_over_dr"] = row["time_fem"] / row["time_dr"]
-        a.reach.append(row)
-
-
-def _difference(x: Result | None, y: Result | None) -> tuple[float, float]:
-    """Shape RMS (/side) and bending-angle difference between two states of one scene."""
-    if x is None or y is None:
-        return np.nan, np.nan
-    rms, _ = x.shape_error(y)
-    return rms, x.bending_angle - y.bending_angle
-
-
-def _mirror(state: Result | None) -> Result | None:
-    """The state reflected in the flat plane (z -> -z): an equilibrium of the same energy."""
-    return None if state is None else replace(state, x=state.x * np.array([1.0, 1.0, -1.0]))
-
-
-def _second_states(a: Analysis) -> None:
-    """Each state the at-once search found, beside the path's state at its pre-stretch (DR
-    matched: the same discrete problem); a second stable state is converged, stable and more
-    than SECOND_STATE from the path's state and from its mirror image in the flat plane (the
-    same state curled the other way, of the same energy)."""
-    for run in a.plan.by_group("second"):
-        for lam, found in sorted(a.states[run.label].items()):
-            path = a.states["dr_matched"].get(lam)
-            row = {"prestretch": lam, "status": found.status,
-                   "theta_path": path.bending_angle if path is not None else np.nan,
-                   "energy_path": path.energy["total"] if path is not None else np.nan,
-                   "theta_dr_at_once": found.info.get("dr_bending_angle", np.nan)}
-            if found.converged:
-                rms, _ = _difference(found, path)
-                mirrored, _ = _difference(found, _mirror(path))
-                row.update(theta_found=found.bending_angle, energy_found=found.energy["total"],
-                           energy_gap=found.energy["total"] - row["energy_path"], shape_distance=rms,
-                           mirror_distance=mirrored, stable=bool(found.info.get("stable")),
-                           lowest_eigenvalue=found.info.get("lowest_eigenvalue_N_per_mm3", np.nan))
-                row["mirror_of_path"] = bool(mirrored <= SECOND_STATE)
-                row["second_state"] = bool(row["stable"] and rms > SECOND_STATE and not row["mirror_of_path"])
-            a.second_states.append(row)
-
-
-def _budget(a: Analysis) -> None:
-    """Error budget at the speed pre-stretch: discretisation, model form, solver tolerance."""
-    lam = a.plan.speed_prestretch
-    ref = a.references.get(lam)
-
-    def add(kind: str, what: str, rms: float, dtheta: float) -> None:
-        a.budget.append({"kind": kind, "what": what, "shape_rms": rms, "bending_angle_diff": dtheta})
-
-    if ref is not None:
-        for k in a.plan.reference_levels:
-            s = a.states[f"fem_r{k}"].get(lam)
-            if s is not None:
-                add("discretisation", f"FEM refinement {k} vs its extrapolated limit", ref.shape_error(s)[0],
-                    s.bending_angle - ref.values["bending_angle"])
-        add("discretisation", "FEM extrapolated limit: its own error estimate", ref.shape_uncertainty,
-            ref.errors["bending_angle"])
-    drconv = a.plan.by_group("drconv")
-    chain = [r.changes["mesh.divisions"] for r in drconv]
-    if a.dr_limit is not None:
-        for run, n in zip(drconv, chain):
-            s = a.states[run.label].get(lam)
-            if s is not None:
-                add("discretisation", f"DR matched, {n} divisions vs its extrapolated limit",
-                    a.dr_limit.shape_error(s)[0], s.bending_angle - a.dr_limit.values["bending_angle"])
-        for net in NETS:
-            net_states = [a.states.get(f"netconv_{net}_n{n}", {}).get(lam) for n in chain]
-            net_limit = build_reference(tuple(range(len(chain))), net_states) if all(net_states) else None
-            if net_limit is not None:
-                a.net_limits[net] = net_limit
-                add("model form", f"{net} net vs triangles (DR, strip frame), each extrapolated over {chain} divisions",
-                    metrics_between_references(net_limit, a.dr_limit),
-                    net_limit.values["bending_angle"] - a.dr_limit.values["bending_angle"])
-        if ref is not None:
-            add("discretisation", "DR triangles (extrapolated) vs FEM (extrapolated): one discrete problem, two limits",
-                metrics_between_references(a.dr_limit, ref),
-                a.dr_limit.values["bending_angle"] - ref.values["bending_angle"])
-    pairs = [
-        ("model form", "link net vs triangles (DR, strip frame)", "dr_links_strip", "dr_matched"),
-        ("model form", "clustered net vs link net (DR, strip frame)", "dr_clustered_strip", "dr_links_strip"),
-        ("model form", "isotropic Table I frame vs strip (DR, link net)", "dr_links_paper", "dr_links_strip"),
-        ("model form", "isotropic Table I frame vs strip (FEM, r0)", "fem_paper_r0", "fem_r0"),
-        ("model form", "Table I I = 0.0003 vs b t^3/12 = 6.8e-4 mm^4 (DR triangles)", "dr_matched", "dr_matched_bt3"),
-        ("model form", "Table I I = 0.0003 vs b t^3/12 = 6.8e-4 mm^4 (FEM, r0)", "fem_r0", "fem_bt3_r0"),
-        ("model form", "film on the strip's face vs at its centreline (FEM, r0)", "fem_film_r0", "fem_r0"),
-    ]
-    for kind, what, x, y in pairs:
-        add(kind, what, *_difference(a.states[x].get(lam), a.states[y].get(lam)))
-    level, fem_finest = a.finest_fem.get(lam, (None, None))
-    finest = f"finest level, r{level}" if level is not None else "finest level"
-    add("model form", f"the paper's DR model vs the FEM reference ({finest})",
-        *_difference(a.states["dr_paper"].get(lam), fem_finest))
-    tight = min((r.changes["dr.tolerance"] for r in drconv), default=None)
-    if tight is not None:
-        n_mid = chain[len(chain) // 2]
-        for run in a.plan.by_group("speed"):
-            if (run.solver == "dr" and run.changes["mesh.divisions"] == n_mid and run.changes["dr.tolerance"] != tight
-                    and run.changes.get("mesh.grading", 1.0) == 1.0):
-                add("solver tolerance", f"DR tol {run.changes['dr.tolerance']:.0e} vs {tight:.0e} ({n_mid} divisions)",
-                    *_difference(a.states[run.label].get(lam), a.states[_speed_label(n_mid, tight)].get(lam)))
-
-
-def metrics_between_references(x: Reference, y: Reference) -> float:
-    """RMS distance of two extrapolated frame curves, / side length."""
-    return float(np.sqrt(np.mean(np.sum((x.curve - y.curve) ** 2, axis=1))) / y.side)
-
-
-def _hard(a: Analysis) -> None:
-    """Each hard case: converged / iterations / time / error, or the error it gave."""
-    for run in a.plan.by_group("hard"):
-        rec = a.records.get(run.label, {})
-        base = {"case": run.label.split("_", 2)[2], "solver": run.solver, "title": run.title}
-        if rec.get("error"):
-            a.hard.append({**base, "prestretch": np.nan, "status": "error", "message": rec["error"]})
-            continue
-        twin = run.label.replace("hard_dr_", "hard_fem_") if run.solver == "dr" else None
-        for lam, res in sorted(a.states[run.label].items()):
-            other = a.states.get(twin, {}).get(lam) if twin else None
-            rms, dtheta = _difference(res, other)
-            a.hard.append({**base, "prestretch": lam, "status": res.status, "converged": res.converged,
-                           "iterations": res.iterations, "wall_time": res.wall_time,
-                           "bending_angle": res.bending_angle if res.scene else np.nan,
-                           "branch": res.info.get("branch", ""),
-                           "shape_rms_vs_fem": rms, "bending_angle_diff_vs_fem": dtheta,
-                           "peak_memory": rec.get("peak_memory_mb", np.nan), "message": res.message})
-        for lam in not_reached(run.prestretches, list(a.states[run.label])):
-            a.hard.append({**base, "prestretch": lam, "status": "not reached",
-                           "message": "the path stopped before this pre-stretch"})
 
 
 REFERENCE_QUANTITIES = ("bending_angle", "apex_y", "apex_z", "energy_total")
@@ -372,7 +202,7 @@ def _limits(a: Analysis) -> None:
         row["dr_levels"] = len(dr_ref.levels) if dr_ref else 0
         if dr_ref is not None and fem_ref is not None:
             row["theta_diff"] = row["theta_dr"] - row["theta_fem"]
-            row["shape_distance"] = metrics_between_references(dr_ref, fem_ref)
+            row["shape_distance"] = curve_distance(dr_ref, fem_ref)
             band = row["theta_dr_error"] + row["theta_fem_error"] + ANGLE_ROUND_OFF
             row["agree"] = bool(abs(row["theta_diff"]) <= band)
         a.limits.append(row)

@@ -77,6 +77,19 @@ def build_reference(levels: Sequence[int], states: Sequence[Result]) -> Referenc
                      level_values, outline.length, outline.side_length)
 
 
+def curve_distance(x: Reference, y: Reference) -> float:
+    """RMS distance of two extrapolated frame curves, / side length."""
+    return float(np.sqrt(np.mean(np.sum((x.curve - y.curve) ** 2, axis=1))) / y.side)
+
+
+def state_difference(x: Result | None, y: Result | None) -> tuple[float, float]:
+    """Shape RMS (/side) and bending-angle difference (deg) between two states of one scene;
+    NaN where either is missing."""
+    if x is None or y is None:
+        return np.nan, np.nan
+    return x.shape_error(y)[0], x.bending_angle - y.bending_angle
+
+
 def apex_of(ref: Reference) -> np.ndarray:
     return np.array([ref.values["apex_x"], ref.values["apex_y"], ref.values["apex_z"]])
 

@@ -10,7 +10,7 @@ import numpy as np
 from results import atomic_write, render
 
 from ..common.plotting import label_axes, plt, save_figure
-from .analysis import THRESHOLDS, Analysis
+from .analysis import Analysis
 
 STYLE = {
     "dr_paper": dict(color="tab:red", marker="s", label="DR, paper's model (clustered, Table I frame)"),
@@ -75,51 +75,6 @@ def energy_stroke(a: Analysis, path: Path) -> Path:
     axes[1].set_title("Energy split: membrane (solid) and frame (dashed)")
     for ax in axes:
         label_axes(ax, "stroke [deg] (from the most bent converged state)", "energy [N mm]", fontsize=6)
-    return save_figure(fig, path)
-
-
-def convergence(a: Analysis, path: Path) -> Path:
-    """Mesh convergence: FEM bending angle per level; shape error against element size."""
-    fig, axes = plt.subplots(1, 2, figsize=(10, 4))
-    for lam, ref in sorted(a.references.items()):
-        axes[0].plot(ref.levels, ref.level_values["bending_angle"], "o-", label=f"lambda {lam:g}")
-        axes[0].axhline(ref.values["bending_angle"], color=axes[0].lines[-1].get_color(), ls=":", lw=0.8)
-    label_axes(axes[0], "FEM refinement level (element size / 2^k)", "bending angle [deg] (dotted: extrapolated)",
-           fontsize=6, ncol=2)
-    rows = [r for r in a.budget if r["kind"] == "discretisation" and np.isfinite(r["shape_rms"]) and r["shape_rms"] > 0]
-    fem = [(2.0 ** -int(r["what"].split("refinement ")[1].split()[0]), r["shape_rms"]) for r in rows if r["what"].startswith("FEM refinement")]
-    dr = [(1.0 / int(r["what"].split(", ")[1].split()[0]), r["shape_rms"]) for r in rows if r["what"].startswith("DR matched")]
-    for pts, st, name in ((fem, "kD-", "FEM vs its limit"), (dr, "bo-", "DR matched vs its limit")):
-        if pts:
-            h, e = zip(*pts)
-            h = np.array(h) / max(h)
-            axes[1].loglog(h, e, st, label=name)
-    if fem or dr:
-        h = np.array([0.25, 1.0])
-        axes[1].loglog(h, 0.5 * max(e for _, e in fem + dr) * h**2, "k:", lw=0.8, label="slope 2")
-    axes[1].set_title(f"Discretisation error at lambda {a.plan.speed_prestretch:g}")
-    label_axes(axes[1], "relative element size h / h_coarsest", "frame-curve RMS error / side")
-    return save_figure(fig, path)
-
-
-def pareto(a: Analysis, path: Path) -> Path:
-    """Wall time against shape error (to the FEM reference) for every speed run."""
-    fig, ax = plt.subplots(figsize=(6.4, 4.4))
-    for method, st in (("dr", dict(color="tab:blue", marker="o")), ("fem", dict(color="k", marker="D"))):
-        rows = [r for r in a.speed_rows if r["method"] == method and np.isfinite(r["shape_rms"])]
-        if rows:
-            ax.loglog([r["shape_rms"] for r in rows], [r["wall_time"] for r in rows], st["marker"], color=st["color"],
-                      ls="none", label="DR matched (mesh x tolerance)" if method == "dr" else "FEM (refinement levels)")
-            for r in rows:
-                tag = f"n{int(r['mesh'])}, {r['tolerance']:.0e}" if method == "dr" else f"r{int(r['refinement'])}"
-                if r.get("grading", 1.0) != 1.0:
-                    tag = (f"n{int(r['mesh'])} g{r['grading']:g}" + (f" r{int(r['refinement'])}" if r["refinement"] else "")
-                           + (f", {r['tolerance']:.0e}" if method == "dr" else ""))
-                ax.annotate(tag, (r["shape_rms"], r["wall_time"]), fontsize=6, xytext=(3, 2), textcoords="offset points")
-    for t in THRESHOLDS:
-        ax.axvline(t, color="0.6", ls="--", lw=0.8)
-    ax.set_title(f"Speed against error at lambda {a.plan.speed_prestretch:g}")
-    label_axes(ax, "frame-curve RMS error / side (to the extrapolated FEM reference)", "wall time [s]")
     return save_figure(fig, path)
 
 

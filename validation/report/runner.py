@@ -284,7 +284,7 @@ def run_plan(plan: Plan, scene_data: dict[str, Any], out_dir: Path, workers: int
     ``workers`` processes (``workers <= 1``: this process), see :mod:`validation.common.executor`.
     The runs of each study's group are solved by the study (:class:`validation.report.study.Study`).
     """
-    executes = {study.group: study.execute for study in studies}
+    executes = {study.group: study.execute for study in studies if study.execute is not None}
     with folder_lock(out_dir, "demes validate"):
         return _run_plan(plan, scene_data, out_dir, workers, progress, on_done, scheduler, executes)
 

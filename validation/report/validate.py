@@ -13,14 +13,19 @@ import scenes
 
 from . import figures
 from .analysis import Analysis, analyse
-from .plan import build_plan
+from .plan import Plan, build_plan
 from .runner import run_plan, stale_runs
-from .studies import experiment
+from .studies import budget, experiment, hard_cases, second_states, speed
 from .study import Study
 from .writing import write_report
 
-STUDIES: tuple[Study, ...] = (experiment.STUDY,)
-"""The studies of ``demes validate`` beside its own comparisons, in the report's order."""
+STUDIES: tuple[Study, ...] = (speed.STUDY, budget.STUDY, second_states.STUDY, hard_cases.STUDY, experiment.STUDY)
+"""The studies of ``demes validate`` beside its core comparison, in the report's order."""
+
+
+def validation_plan(quick: bool = False) -> Plan:
+    """The plan ``demes validate`` runs: the core's runs and those of every study in :data:`STUDIES`."""
+    return build_plan(quick, studies=STUDIES)
 
 
 def validate(scene: scenes.Scene, out_dir: Path, quick: bool = False, workers: int = 2,
@@ -31,7 +36,7 @@ def validate(scene: scenes.Scene, out_dir: Path, quick: bool = False, workers: i
     processes (``workers <= 1``: this process). ``solve=False`` solves nothing: the report is
     written from the states already in ``out_dir``, and names the runs that are not finished."""
     t0 = time.perf_counter()
-    plan = build_plan(quick, studies=STUDIES)
+    plan = validation_plan(quick)
     if solve:
         run_plan(plan, scene.to_dict(), out_dir, workers=workers, progress=progress, scheduler=scheduler,
                  studies=STUDIES)
@@ -46,12 +51,10 @@ def validate(scene: scenes.Scene, out_dir: Path, quick: bool = False, workers: i
 
 
 def draw(a: Analysis, fig_dir: Path) -> dict[str, Path | None]:
-    """The report's figures by name: the validation's own, then each study's."""
+    """The report's figures by name: the core's, then each study's."""
     figs = {
         "bending_angle": figures.bending_angle(a, fig_dir / "bending_angle.png"),
         "energy_stroke": figures.energy_stroke(a, fig_dir / "energy_stroke.png"),
-        "convergence": figures.convergence(a, fig_dir / "convergence.png"),
-        "pareto": figures.pareto(a, fig_dir / "pareto.png"),
         "frame_curves": figures.frame_curves(a, fig_dir / "frame_curves.png"),
         "renders": figures.renders(a, a.plan.speed_prestretch, fig_dir / "shapes.png"),
     }

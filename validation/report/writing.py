@@ -16,7 +16,7 @@ from results import ENERGY_DEFINITION, atomic_write_text, level_label
 
 from ..common.document import Section, Table, to_html, to_markdown
 from ..common.tables import write_csv
-from .analysis import BRANCH_JUMP, SECOND_STATE, THRESHOLDS, Analysis
+from .analysis import BRANCH_JUMP, Analysis
 from .beam_energy import mismatch_sentence
 from .compare import METRIC_UNITS
 from .study import Study
@@ -37,28 +37,6 @@ HEADLINE = (
     ("time_matched", "DR matched [s]", ".2f"),
     ("time_fem_finest", "FEM finest [s]", ".2f"),
 )
-SPEED = (
-    ("title", "run", ""),
-    ("status", "status", ""),
-    ("free_dofs", "free DOFs", ".0f"),
-    ("wall_time", "time [s]", ".3g"),
-    ("iterations", "iterations", "d"),
-    ("shape_rms", "shape RMS [/side]", ".3g"),
-    ("bending_angle_diff", "d theta [deg]", ".3g"),
-    ("peak_memory", "peak memory [MB]", ".0f"),
-)
-REACH = (
-    ("shape_error", "shape error [/side]", ".2%"),
-    ("time_dr", "DR [s]", ".3g"),
-    ("time_fem", "FEM [s]", ".3g"),
-    ("ratio_fem_over_dr", "FEM / DR time", ".3g"),
-)
-BUDGET = (
-    ("kind", "kind", ""),
-    ("what", "what", ""),
-    ("shape_rms", "shape RMS [/side]", ".3g"),
-    ("bending_angle_diff", "d theta [deg]", ".3g"),
-)
 SLACK = (
     ("run", "run", ""),
     ("prestretch", "lambda", "level"),
@@ -73,20 +51,6 @@ BRANCH = (
     ("stable", "stable", ""),
     ("lowest_eigenvalue", "lowest eigenvalue [N/mm^3]", ".3g"),
     ("move", "move from previous level [/side]", ".3g"),
-)
-SECOND = (
-    ("prestretch", "lambda", "level"),
-    ("theta_path", "path: theta [deg]", ".2f"),
-    ("energy_path", "path: energy [N mm]", ".4g"),
-    ("theta_dr_at_once", "at once, DR: theta [deg]", ".2f"),
-    ("theta_found", "polished: theta [deg]", ".2f"),
-    ("energy_found", "polished: energy [N mm]", ".4g"),
-    ("energy_gap", "energy above the path's [N mm]", ".3g"),
-    ("shape_distance", "distance [/side]", ".3g"),
-    ("mirror_distance", "from the path's mirror image [/side]", ".3g"),
-    ("stable", "stable", ""),
-    ("lowest_eigenvalue", "lowest eigenvalue [N/mm^3]", ".3g"),
-    ("second_state", "second stable state", ""),
 )
 REFERENCE = (
     ("prestretch", "lambda", "level"),
@@ -133,22 +97,10 @@ FIRST_CONTACT = (
     ("error", "+- [-]", ".2g"),
     ("order", "observed order", ".2f"),
 )
-HARD = (
-    ("case", "case", ""),
-    ("solver", "solver", ""),
-    ("prestretch", "lambda", "level"),
-    ("status", "status", ""),
-    ("iterations", "iterations", "d"),
-    ("wall_time", "time [s]", ".3g"),
-    ("bending_angle", "theta [deg]", ".2f"),
-    ("branch", "branch", ""),
-    ("shape_rms_vs_fem", "DR vs FEM shape RMS [/side]", ".3g"),
-    ("message", "message", ""),
-)
 
 
 def _findings(a: Analysis) -> list[str]:
-    """Sentences stating the measured outcome (numbers only, no judgement beyond them)."""
+    """The core's sentences stating the measured outcome (numbers only, no judgement beyond them)."""
     out = []
     rows = [r for r in a.headline if np.isfinite(r.get("theta_fem", np.nan))]
     if rows:
@@ -191,28 +143,12 @@ def _findings(a: Analysis) -> list[str]:
         out.append(f"DR's and the FEM's refined limits agree within their error estimates at {sum(r['agree'] for r in rows)} "
                    f"of {len(rows)} pre-stretch levels {how}; largest difference {abs(worst['theta_diff']):.3g} deg "
                    f"at lambda = {worst['prestretch']:g}.")
-    for net, lim in a.net_limits.items():
-        out.append(f"The paper's {net} net (strip frame) refined to its own limit at lambda = {lam:g}: "
-                   f"{lim.values['bending_angle']:.3f} +- {lim.errors['bending_angle']:.2g} deg (model form against the "
-                   "triangles' limit in the error budget).")
-    for r in a.reach:
-        if np.isfinite(r["ratio_fem_over_dr"]):
-            out.append(f"Time to reach {r['shape_error']:.1%} shape error: DR {r['time_dr']:.3g} s, FEM {r['time_fem']:.3g} s, "
-                       f"ratio FEM/DR {r['ratio_fem_over_dr']:.3g}.")
-        else:
-            which = [m.upper() for m in ("dr", "fem") if not np.isfinite(r[f"time_{m}"])]
-            out.append(f"{r['shape_error']:.1%} shape error is not reached by {' and '.join(which)} in this study.")
-    second = [r for r in a.second_states if r.get("second_state")]
-    if second:
-        out.append("Second stable states (refinement 0, the pre-stretch applied at once): " + "; ".join(
-            f"{level_label(r['prestretch'])}: theta {r['theta_found']:.1f} deg, energy {r['energy_gap']:+.3g} N mm from the "
-            f"path's {r['theta_path']:.1f} deg" for r in second) + ".")
-    elif a.second_states:
-        out.append(f"The search for second stable states found none at {len(a.second_states)} pre-stretch levels.")
-    mirrors = [level_label(r["prestretch"]) for r in a.second_states if r.get("mirror_of_path")]
-    if mirrors:
-        out.append(f"Applied at once, DR ended on the path's state curled the other way (its mirror image in the "
-                   f"flat plane, the same energy) at {', '.join(mirrors)}.")
+    return out
+
+
+def _run_notes(a: Analysis) -> list[str]:
+    """Sentences on runs solved again, stale or unfinished (the report's last findings)."""
+    out = []
     if a.resolved:
         out.append(f"Runs solved again because the states on disk were made with another scene, settings or "
                    f"code version: {', '.join(a.resolved)}.")
@@ -225,15 +161,14 @@ def _findings(a: Analysis) -> list[str]:
     return out
 
 
-UNITS = {**METRIC_UNITS, "shape_error": "-", "time_dr": "s", "time_fem": "s", "wall_time": "s",
+UNITS = {**METRIC_UNITS, "wall_time": "s",
          "theta_fem": "deg", "theta_fem_error": "deg", "theta_matched": "deg", "theta_paper": "deg",
-         "bending_angle_diff_vs_fem": "deg", "shape_rms_vs_fem": "-", "time_matched": "s", "time_paper": "s",
+         "time_matched": "s", "time_paper": "s",
          "time_fem_finest": "s", "bending_angle_error": "deg", "apex_y_error": "mm", "apex_z_error": "mm",
          "energy_total_error": "N mm", "shape_uncertainty": "-", "time_per_state": "s", "time_total": "s",
          "theta_dr": "deg", "theta_dr_error": "deg", "theta_diff": "deg", "shape_distance": "-",
-         "theta_path": "deg", "theta_found": "deg", "theta_dr_at_once": "deg", "energy_path": "N mm",
-         "energy_found": "N mm", "energy_gap": "N mm", "lowest_eigenvalue": "N/mm^3"}
-"""The unit of every column of the report's tables (CSV headers, metrics.json)."""
+         "lowest_eigenvalue": "N/mm^3"}
+"""The unit of every column of the core's tables (CSV headers, metrics.json); a study adds its own."""
 
 
 @dataclass(frozen=True)
@@ -247,46 +182,45 @@ class DataTable:
 
 DATA_TABLES = (
     DataTable("headline", "headline"),
-    DataTable("speed", "speed_rows"),
-    DataTable("time_to_error", "reach"),
-    DataTable("error_budget", "budget"),
-    DataTable("hard_cases", "hard"),
     DataTable("reference", "reference_rows"),
     DataTable("branches", "branch_rows"),
     DataTable("first_contact", "first_contact"),
     DataTable("reference_table", "reference_table"),
     DataTable("fem_levels", "level_costs"),
     DataTable("limits", "limits"),
-    DataTable("second_states", "second_states"),
     DataTable("states", "state_rows"),
 )
-"""Every table of numbers the report writes, in the order of metrics.json."""
+"""The core's tables of numbers, in the order of metrics.json (the studies' follow)."""
 
 
 def write_report(a: Analysis, out_dir: Path, figures: dict[str, Path | None], title: str, *,
                  studies: Sequence[Study] = ()) -> dict[str, Path]:
-    """Write report.md, index.html and the CSV/JSON tables, each study's tables and section
-    after the validation's own (:class:`validation.report.study.Study`); returns their paths."""
-    files = write_tables(a, out_dir)
-    sections = [build(a, figures) for build in SECTIONS]
-    rows = verdicts(a)
-    for study in studies:
-        if study.name in a.studies:
-            files.update(study.tables(a.studies[study.name], out_dir))
-            sections.append(study.section(a.studies[study.name], figures))
-            rows += study.verdicts(a.studies[study.name])
+    """Write report.md, index.html and the CSV/JSON tables: the core's, then each study's
+    (:class:`validation.report.study.Study`) tables, findings, section and verdicts; returns
+    their paths."""
+    reported = [(study, a.studies[study.name]) for study in studies if study.name in a.studies]
+    tables = {t.name: getattr(a, t.rows) for t in DATA_TABLES}
+    units = dict(UNITS)
+    for study, numbers in reported:
+        tables.update(study.tables(numbers))
+        units.update(study.units)
+    files = write_tables(tables, a.records, units, out_dir)
+    findings = [*_findings(a), *(line for study, numbers in reported for line in study.findings(numbers)), *_run_notes(a)]
+    sections = [Section("Findings", findings), *(build(a, figures) for build in SECTIONS),
+                *(study.section(numbers, figures) for study, numbers in reported)]
+    rows = verdicts(a) + [row for study, numbers in reported for row in study.verdicts(numbers)]
     table = [r._asdict() for r in rows]
     files["verdicts"] = write_csv(out_dir / "verdicts.csv", table)
     files.update(write_document([_verdict_section(table), *sections], title, out_dir))
     return files
 
 
-def write_tables(a: Analysis, out_dir: Path) -> dict[str, Path]:
-    """The tables of :data:`DATA_TABLES` as CSV files, and all of them (with the run records and
-    the units) in metrics.json; their paths by table name, metrics.json as 'json'."""
-    tables = {t.name: getattr(a, t.rows) for t in DATA_TABLES}
-    files = {name: write_csv(out_dir / f"{name}.csv", rows, units=UNITS) for name, rows in tables.items()}
-    everything = {**tables, "runs": a.records, "units": UNITS}
+def write_tables(tables: dict[str, list[dict[str, Any]]], records: dict[str, dict[str, Any]],
+                 units: dict[str, str], out_dir: Path) -> dict[str, Path]:
+    """Each table as ``<name>.csv``, and all of them (with the run records and the units) in
+    metrics.json; their paths by table name, metrics.json as 'json'."""
+    files = {name: write_csv(out_dir / f"{name}.csv", rows, units=units) for name, rows in tables.items()}
+    everything = {**tables, "runs": records, "units": units}
     files["json"] = atomic_write_text(out_dir / "metrics.json", json.dumps(_plain(everything), indent=1))
     return files
 
@@ -304,11 +238,6 @@ def _verdict_section(rows: list[dict[str, str]]) -> Section:
     what it says; the detail follows."""
     return Section("Verdicts", ["Each claim the validation tests, what it measured and the verdict; the sections "
                                 "below give the detail.", Table(VERDICT_COLUMNS, rows)])
-
-
-def _findings_section(a: Analysis, figures: dict[str, Path | None]) -> Section:
-    """The measured outcomes in sentences."""
-    return Section("Findings", _findings(a))
 
 
 def _shape_section(a: Analysis, figures: dict[str, Path | None]) -> Section:
@@ -349,18 +278,6 @@ def _reference_levels_section(a: Analysis, figures: dict[str, Path | None]) -> S
         "finest bracket.", Table(FIRST_CONTACT, a.first_contact)])
 
 
-def _second_states_section(a: Analysis, figures: dict[str, Path | None]) -> Section:
-    """The search for second stable states."""
-    return Section("Second stable states", [
-        "The path above is one quasi-static branch. To look for others, DR applies each pre-stretch at once from "
-        "the flat state (as the paper did: the pseudo-dynamic transient can settle off the path) on the matched "
-        "model at refinement 0, and the FEM's Newton on the same mesh polishes that state and checks its stability "
-        "(lowest eigenvalue of the tangent). A polished state that is stable and more than "
-        f"{SECOND_STATE:g} of the side from the path's state is a second stable state; both are listed with their "
-        "energies. A search from one start per pre-stretch finds some other states, not all.",
-        Table(SECOND, a.second_states)])
-
-
 def _energy_section(a: Analysis, figures: dict[str, Path | None]) -> Section:
     """Energies against stroke."""
     return Section("Energy against stroke", [
@@ -377,29 +294,6 @@ def _tension_field_section(a: Analysis, figures: dict[str, Path | None]) -> Sect
         Table(SLACK, [r for r in a.state_rows if r.get("group") in ("sweep", "reference")])])
 
 
-def _speed_section(a: Analysis, figures: dict[str, Path | None]) -> Section:
-    """Wall time against shape error."""
-    lam = a.plan.speed_prestretch
-    return Section(f"Speed against error (lambda = {lam:g})", [
-        "Each state solved from scratch; DR over mesh density and tolerance, the FEM over refinement levels "
-        "(continuation from the flat state included in its time); 'graded g' rows on meshes graded towards the "
-        "frame (mesh.grading: element size h0 / g at the outline), where the shape error lives.",
-        Table(SPEED, a.speed_rows), Table(REACH, a.reach), figures.get("pareto")])
-
-
-def _budget_section(a: Analysis, figures: dict[str, Path | None]) -> Section:
-    """The error budget."""
-    lam = a.plan.speed_prestretch
-    return Section(f"Error budget (lambda = {lam:g})", [
-        "Discretisation error of each model against its own refined limit, model-form differences (one ingredient "
-        "at a time), and the solver tolerance.", Table(BUDGET, a.budget), figures.get("convergence")])
-
-
-def _hard_cases_section(a: Analysis, figures: dict[str, Path | None]) -> Section:
-    """The hard cases."""
-    return Section("Hard cases", [Table(HARD, a.hard)])
-
-
 def _shapes_section(a: Analysis, figures: dict[str, Path | None]) -> Section:
     """Renders of the states."""
     return Section("Shapes", [
@@ -408,10 +302,10 @@ def _shapes_section(a: Analysis, figures: dict[str, Path | None]) -> Section:
 
 
 SECTIONS: tuple[Callable[[Analysis, dict[str, Path | None]], Section], ...] = (
-    _findings_section, _shape_section, _limits_section, _reference_levels_section, _second_states_section,
-    _energy_section, _tension_field_section, _speed_section, _budget_section, _hard_cases_section, _shapes_section,
+    _shape_section, _limits_section, _reference_levels_section, _energy_section, _tension_field_section,
+    _shapes_section,
 )
-"""The validation's own sections of the report, in order."""
+"""The core's sections of the report after its findings, in order; the studies' follow."""
 
 
 def _plain(obj: Any) -> Any:
@@ -428,4 +322,4 @@ def _plain(obj: Any) -> Any:
     return obj
 
 
-__all__ = ["write_report", "THRESHOLDS"]
+__all__ = ["write_report"]

@@ -12,7 +12,7 @@ from results import SUMMARY_COLUMNS, Result, level_label, write_pvd
 from ..common.tables import STATE_TABLE, format_table, write_csv
 
 
-def run_sweep(
+def record_states(
     states: Iterator[Result],
     prestretches: Sequence[float],
     out_dir: str | Path,

@@ -22,13 +22,21 @@ import numpy as np
 from results import Result, atomic_write_text, level_label, load_result, save_result, write_pvd
 from scenes import Scene
 
-from ...actuation.actuate import (EXPERIMENT, PAPER_FLAT_V, PAPER_STEEP_STROKE, PAPER_SUBSTANTIAL_V, UNITS,
-                                   characteristics, compare, row, voltage_states)
+from ...actuation.actuate import (
+    EXPERIMENT,
+    PAPER_FLAT_V,
+    PAPER_STEEP_STROKE,
+    PAPER_SUBSTANTIAL_V,
+    UNITS,
+    characteristics,
+    compare,
+    row,
+    voltage_states,
+)
 from ...actuation.calibrate import CHECK_VOLTAGES, Calibration, describe, fit, flattening_voltage, residuals
 from ...actuation.figures import energy_stroke, stroke_voltage
 from ...common.document import Section, Table
-from ...common.tables import write_csv
-from ..plan import MATCHED, REFERENCE, Plan, Run
+from ..plan import MATCHED, REFERENCE, Run, Settings
 from ..study import Study
 from ..verdicts import Verdict
 
@@ -50,12 +58,12 @@ QUICK_MESH = {"mesh.divisions": 6}
 """The quick plan's experiment runs: a coarse mesh (at 4 divisions the FEM and DR angles differ by 360 deg)."""
 
 
-def experiment_runs(*, coarse: dict[str, Any], quick: bool) -> list[Run]:
+def experiment_runs(s: Settings) -> list[Run]:
     """The plan's voltage runs: FEM and matched DR with Table I's values (flat near 6.75 kV),
     the FEM calibrated to the experiment (flat at 2.25 kV)."""
-    mesh = QUICK_MESH if quick else coarse
-    table = _grid(7000.0, 1000.0 if quick else 500.0)
-    calibrated = _grid(3000.0, 500.0) if quick else CHECK_VOLTAGES
+    mesh = QUICK_MESH if s.quick else s.coarse
+    table = _grid(7000.0, 1000.0 if s.quick else 500.0)
+    calibrated = _grid(3000.0, 500.0) if s.quick else CHECK_VOLTAGES
     return [
         Run("exp_fem_table1", "fem", {**mesh, **REFERENCE}, group=GROUP, voltages=table,
             title="FEM, strip frame, Table I"),
@@ -105,9 +113,10 @@ def load_sweep(run_dir: Path) -> list[Result]:
     return sorted(states, key=lambda r: r.info["voltage_V"])
 
 
-def analyse(plan: Plan, out_dir: Path) -> Experiment | None:
-    """Read the plan's experiment runs (None if it has none)."""
-    runs = plan.by_group(GROUP)
+def analyse(a: Any, out_dir: Path) -> Experiment | None:
+    """Read the plan's experiment runs from ``out_dir`` (None if it has none; ``a``: the core
+    analysis, whose plan lists them)."""
+    runs = a.plan.by_group(GROUP)
     if not runs:
         return None
     ex = Experiment()
@@ -156,14 +165,11 @@ def figures(ex: Experiment, fig_dir: Path) -> dict[str, Path]:
     return {name: draw[name](runs, fig_dir / f"{name}.png") for name in FIGURES}
 
 
-def write_tables(ex: Experiment, out_dir: Path) -> dict[str, Path]:
-    """``experiment.csv`` (every state of every sweep) and ``experiment_summary.csv``."""
+def tables(ex: Experiment) -> dict[str, list[dict[str, Any]]]:
+    """``experiment`` (every state of every sweep) and ``experiment_summary``."""
     states = [{"run": label, **{k: v for k, v in r.items() if k != "message"}}
               for label, rows in ex.sweeps.items() for r in rows]
-    units = {**UNITS, "theta0": "deg", "stroke_at_1kV": "deg", "flat_voltage": "V", "flat_closed_form": "V",
-             "pull_in_voltage": "V", "steep_stroke": "deg", "membrane_E": "MPa", "frame_E": "MPa"}
-    return {"experiment": write_csv(out_dir / "experiment.csv", states, units=units),
-            "experiment_summary": write_csv(out_dir / "experiment_summary.csv", ex.summary, units=units)}
+    return {"experiment": states, "experiment_summary": ex.summary}
 
 
 def findings(ex: Experiment) -> list[str]:
@@ -226,6 +232,8 @@ def verdicts(ex: Experiment) -> list[Verdict]:
     return [Verdict(claim, measured, verdict)]
 
 
-STUDY = Study(name="experiment", group=GROUP, runs=experiment_runs, execute=execute, analyse=analyse,
-              figures=figures, tables=write_tables, section=section, verdicts=verdicts)
+STUDY = Study(name="experiment", runs=experiment_runs, analyse=analyse, section=section, tables=tables,
+              units={**UNITS, "theta0": "deg", "stroke_at_1kV": "deg", "flat_voltage": "V", "flat_closed_form": "V",
+                     "pull_in_voltage": "V", "steep_stroke": "deg", "membrane_E": "MPa", "frame_E": "MPa"},
+              figures=figures, verdicts=verdicts, group=GROUP, execute=execute)
 """The voltage runs against the experiment, as ``demes validate`` plugs them in."""

@@ -12,7 +12,7 @@ import pytest
 from scenes import tomllib
 from validation.cli import main
 from validation.design.grid import GridError, grid_from_dict
-from validation.design.sweep import family_dir, load_records, record_path, run_study, solve_family, state_path
+from validation.design.sweep import family_dir, load_records, record_path, run_design_sweep, solve_family, state_path
 
 # a fast study: the strip frame (stated: the default frame model may change) on coarse meshes at
 # low pre-stretch; the finer mesh is the slow point, several times slower than the coarse one
@@ -77,7 +77,7 @@ def test_cli_reports_a_bad_grid(tmp_path, capsys):
 @pytest.fixture(scope="module")
 def serial(tmp_path_factory):
     out = tmp_path_factory.mktemp("serial")
-    return run_study(grid(), out, workers=1, plots=False, progress=False)
+    return run_design_sweep(grid(), out, workers=1, plots=False, progress=False)
 
 
 @pytest.fixture(scope="module")
@@ -137,7 +137,7 @@ def test_cluster_run_survives_a_killed_worker_and_equals_the_serial_run(serial, 
     cloudpickle.register_pickle_by_value(sys.modules[__name__])
     try:
         client.run(_die_after_the_first_record_of, str(family_dir(tmp_path, slow)), str(marker))
-        study = run_study(g, tmp_path, scheduler=cl.scheduler_address, plots=False, progress=False)
+        study = run_design_sweep(g, tmp_path, scheduler=cl.scheduler_address, plots=False, progress=False)
         client.run(_restore_the_record_writer)
     finally:
         cloudpickle.unregister_pickle_by_value(sys.modules[__name__])
@@ -168,7 +168,7 @@ def test_a_stopped_path_records_why_and_the_pre_stretches_it_did_not_reach(tmp_p
     to 1.2 (docs/elements.md: it does not curl): that point keeps its status and where it
     stopped, in the table and the ParaView series; 1.3 is not reached; a rerun solves nothing."""
     g = grid(**{"set": {"frame.model": "paper"}, "product": {"mesh.divisions": [8]}, "prestretch": [1.1, 1.2, 1.3]})
-    table = run_study(g, tmp_path, workers=1, vtk=True, plots=False, progress=False).table
+    table = run_design_sweep(g, tmp_path, workers=1, vtk=True, plots=False, progress=False).table
     assert table["status"].tolist() == ["converged", "membrane_fold", "not_reached"]
     key = g.families[0].key
     series = (tmp_path / "points" / key / f"{key}.pvd").read_text()  # ParaView series of the path
@@ -176,7 +176,7 @@ def test_a_stopped_path_records_why_and_the_pre_stretches_it_did_not_reach(tmp_p
     assert 1.1 < table["reached_prestretch"][1] < 1.2
     # the folded state's film passes through itself: its angle is not read
     assert table["bending_angle"][:1].notna().all() and table["bending_angle"][1:].isna().all()
-    again = run_study(g, tmp_path, workers=1, plots=False, progress=False)
+    again = run_design_sweep(g, tmp_path, workers=1, plots=False, progress=False)
     assert again.solved == () and again.table.equals(table)
 
 
@@ -185,7 +185,7 @@ def test_a_failed_path_is_reported_and_left_to_the_rerun(tmp_path, monkeypatch):
         raise FloatingPointError(f"path {family.key} diverged")
 
     monkeypatch.setattr("validation.design.sweep.solve_family", broken)
-    study = run_study(grid(), tmp_path, workers=1, plots=False, progress=False)
+    study = run_design_sweep(grid(), tmp_path, workers=1, plots=False, progress=False)
     assert set(study.failed) == {f.key for f in grid().families} and study.solved == ()
     assert (study.table["status"] == "failed").all()
     assert study.table["message"].str.contains("FloatingPointError: path .* diverged").all()
