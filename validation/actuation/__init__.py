@@ -1,0 +1,2 @@
+"""``demes actuate`` and ``demes calibrate``: voltage sweeps, their closed forms and the fit to
+the experiment."""

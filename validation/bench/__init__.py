@@ -1,0 +1,1 @@
+"""``demes bench``: wall time, iterations and throughput of the solvers (not tests)."""
