@@ -17,6 +17,15 @@ def positive(name: str, value: float) -> float:
     return v
 
 
+def prestretch_tensor(value: Sequence[Sequence[float]]) -> np.ndarray:
+    """``value`` as a pre-stretch tensor: a symmetric positive-definite (2, 2) array."""
+    P = np.asarray(value, dtype=float)
+    if (P.shape != (2, 2) or not np.all(np.isfinite(P)) or abs(P[0, 1] - P[1, 0]) > 1e-12 * np.abs(P).max()
+            or np.linalg.eigvalsh(P).min() <= 0.0):
+        raise DRError("a pre-stretch tensor must be a symmetric positive-definite (2, 2) array")
+    return P
+
+
 def unit(name: str, v: Sequence[float]) -> np.ndarray:
     """The unit vector along ``v``, a finite non-zero 3-vector."""
     a = np.asarray(v, dtype=float).reshape(-1)

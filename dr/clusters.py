@@ -59,6 +59,14 @@ def scale_membrane(stored: list, factor: float) -> list:
     return [(c, ea, L0 * factor, to) for c, ea, L0, to in stored]
 
 
+def prestretch_membrane(stored: list, model, P: np.ndarray) -> list:
+    """The cables of ``stored`` with rest lengths sum |P^-1 d| over their segments (d the flat
+    x, y span, P the pre-stretch tensor (2, 2))."""
+    ref = model.ref_positions()[:, :2]
+    return [(c, ea, float(np.linalg.norm(np.linalg.solve(P, np.diff(ref[c], axis=0).T), axis=0).sum()), to)
+            for c, ea, _, to in stored]
+
+
 def pack(model, rest) -> Fields:
     """The clustered cables of ``model`` (:meth:`dr.Model.add_cluster`); ``rest`` is unused."""
     cl = model.stored[Fields]

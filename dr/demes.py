@@ -18,7 +18,7 @@ from scenes.mesh import membrane_mesh, transfer_linear
 
 from . import stability
 from .demes_measures import asymmetry, paper_formula_membrane_energy, slack_fractions
-from .demes_model import DemesModel, build
+from .demes_model import DemesModel, build, set_prestretch
 from .film_cells import film_surface
 from .relax import relax
 from .symmetry import kept_by, restore, restore_mode
@@ -234,7 +234,7 @@ def _follow_path(scene: Scene, dm: DemesModel, x_start: np.ndarray, start: float
     drifting: set[str] = set()  # symmetries DR's stable states do not keep on this model
     while True:
         lam = _ramp(reached, stop, step)[0]
-        dm.model.scale_membrane_rest_lengths(current / lam)
+        set_prestretch(dm.model, scene, lam, current)
         current = lam
         levels.tried.append(lam)
         last = lam == stop

@@ -12,7 +12,7 @@ from .demes_model import DemesModel
 from .kernels import place_virtual
 from .links import lengths as link_lengths, tensions
 from .model import Model
-from .triangles import (AREA as TRI_AREA, DIRECTIONS as TRI_DIRECTIONS, LAM as TRI_LAM, LAW as TRI_LAW,
+from .triangles import (AREA as TRI_AREA, DIRECTIONS as TRI_DIRECTIONS, FAMILY_LAM as TRI_FAMILY_LAM, LAW as TRI_LAW,
                         LINEAR as TRI_LINEAR, energy as triangle_energy)
 
 
@@ -91,7 +91,7 @@ def _triangle_slack(dm: DemesModel, x: np.ndarray) -> tuple[np.ndarray, np.ndarr
         return np.full(area.size, np.nan), np.zeros(area.size, bool), np.zeros(area.size, bool)
     F = np.einsum("tai,taj->tij", x[P.tri_idx], P.tri_grad)  # (t, 3, 2) deformation gradients
     stretch = np.linalg.norm(np.einsum("tij,kj->tki", F, TRI_DIRECTIONS), axis=2)  # (t, 3)
-    slack = P.tri_par[:, TRI_LAM, None] * stretch - 1.0 <= 0.0
+    slack = P.tri_par[:, list(TRI_FAMILY_LAM)] * stretch - 1.0 <= 0.0
     return area, slack.any(axis=1), slack.all(axis=1)
 
 

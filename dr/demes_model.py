@@ -4,7 +4,7 @@ the symmetry-breaking lift, the contact checks and the model's mirror map."""
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from scipy.spatial import cKDTree
@@ -63,6 +63,34 @@ def build(scene: Scene, prestretch: float | None = None) -> DemesModel:
     """Build the DR model of ``scene`` at ``prestretch`` (default: the scene's)."""
     lam = scene.prestretch if prestretch is None else prestretch_value("pre-stretch", prestretch)
     check_voltage_net(scene, scene.loading.voltage)
+    if scene.prestretch_path.isotropic:
+        return _build(scene, lam)
+    # unequal pre-stretch: built unstretched, then every membrane element given the tensor; the
+    # symmetries are those of the film off the flat state (at lambda = 1 the tensor is I, and an
+    # angled pre-stretch's lost mirror would not show)
+    dm = _build(scene, 1.0)
+    set_prestretch(dm.model, scene, max(scene.prestretch, lam, SYMMETRY_PROBE))
+    symmetries = model_symmetries(dm.model, dm.mirror)
+    set_prestretch(dm.model, scene, lam)
+    return replace(dm, symmetries=symmetries)
+
+
+SYMMETRY_PROBE = 1.5
+"""Path value at which an unequal pre-stretch's symmetries are found if the path stays below it."""
+
+
+def set_prestretch(model: Model, scene: Scene, lam: float, current: float | None = None) -> None:
+    """Give ``model``'s membrane the pre-stretch of ``scene`` at path value ``lam``; ``current``:
+    the path value it has now (isotropic: its rest lengths are scaled by current / lam)."""
+    path = scene.prestretch_path
+    if path.isotropic:
+        model.scale_membrane_rest_lengths(current / lam)
+    else:
+        model.set_membrane_prestretch(path.tensor(lam))
+
+
+def _build(scene: Scene, lam: float) -> DemesModel:
+    """The DR model at the isotropic pre-stretch ``lam``."""
     if scene.frame.film_offset:
         raise SceneError("frame.film_offset = true (the film on the strip's face) is modelled by the FEM "
                          "reference only; set frame.film_offset = false for DR")

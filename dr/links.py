@@ -61,6 +61,14 @@ def scale_membrane(stored: list, factor: float) -> list:
     return [(i, j, ea, np.where(frame, L0, L0 * factor), to, frame) for i, j, ea, L0, to, frame in stored]
 
 
+def prestretch_membrane(stored: list, model, P: np.ndarray) -> list:
+    """The membrane links of ``stored`` with rest lengths |P^-1 d| (d their flat x, y span, P
+    the pre-stretch tensor (2, 2)); frame links as they are."""
+    ref = model.ref_positions()[:, :2]
+    return [(i, j, ea, np.where(frame, L0, np.linalg.norm(np.linalg.solve(P, (ref[j] - ref[i]).T), axis=0)), to, frame)
+            for i, j, ea, L0, to, frame in stored]
+
+
 def pack(model, rest) -> Fields:
     """The links of ``model`` (:meth:`dr.Model.add_link`); ``rest`` is unused."""
     if model.stored[Fields]:

@@ -27,7 +27,7 @@ from typing import Iterable, NamedTuple, Sequence
 import numpy as np
 
 from . import beams as beam_element
-from .checks import positive, unit
+from .checks import positive, prestretch_tensor, unit
 from .errors import DRError
 from .elements import ELEMENTS
 from .frames import node_frame
@@ -184,6 +184,15 @@ class Model(*(e.Methods for e in ELEMENTS if hasattr(e, "Methods"))):
         for e in ELEMENTS:
             if hasattr(e, "scale_membrane"):
                 self.stored[e.Fields] = e.scale_membrane(self.stored[e.Fields], f)
+
+    def set_membrane_prestretch(self, prestretch: np.ndarray) -> None:
+        """Give clusters, membrane links and triangles the rest state of their flat reference
+        mapped by P^-1: ``prestretch`` is the tensor P (2, 2) in the nodes' x, y
+        (:mod:`scenes.prestretch`; a cable or link of flat span d rests at |P^-1 d|)."""
+        P = prestretch_tensor(prestretch)
+        for e in ELEMENTS:
+            if hasattr(e, "prestretch_membrane"):
+                self.stored[e.Fields] = e.prestretch_membrane(self.stored[e.Fields], self, P)
 
     def offset_node(self, i: int, distance: float) -> int:
         """A virtual node at ``distance`` mm along the strip normal from frame node ``i``.

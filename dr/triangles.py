@@ -1,11 +1,13 @@
 """DR membrane element: the constant-strain triangle with the FEM reference's laws.
 
-Each triangle is flat and stress-free in the reference (the flat mesh shrunk by 1/lambda), its
-deformation gradient F = sum_a x_a (grad N_a)^T (3x2, grad N_a the flat shape-function
-gradients) is constant, and its energy is the flat area times the law's W(F) (N/mm):
+Each triangle is flat and stress-free in the reference (the flat mesh shrunk by 1/lambda, or
+mapped by P^-1 for a pre-stretch tensor P: :mod:`scenes.prestretch`), its deformation gradient
+F = sum_a x_a (grad N_a)^T (3x2, grad N_a the flat shape-function gradients) is constant, and
+its energy is the flat area times the law's W(F) (N/mm):
 
-* ``LINEAR``: the three-family link-net law W = E h / (2 lambda) sum_k eps_k^2,
-  eps_k = lambda |F m_k| - 1 for the lattice directions m_k at 0, 60 and 120 deg, and with
+* ``LINEAR``: the three-family link-net law W = E h sum_k eps_k^2 / (2 lambda_k),
+  eps_k = lambda_k |F m_k| - 1 for the lattice directions m_k at 0, 60 and 120 deg of the flat
+  film, lambda_k = 1 / |P^-1 m_k| the pre-stretch along m_k (lambda where isotropic), and with
   ``tension_only`` a family in compression carries nothing;
 * ``NEO_HOOKEAN``: incompressible, mu = E / 3, W = mu h / 2 (I1 - 3) with the first invariant
   I1 = lambda^2 tr C + 1 / (lambda^4 det C), C = F^T F;
@@ -15,7 +17,7 @@ gradients) is constant, and its energy is the flat area times the law's W(F) (N/
 
 Forces are the exact gradient of that energy. Stiffness bounds for the masses: a family k acts
 like a link along f_k = F m_k joining the nodes with weights c_ka = grad N_a . m_k, so its
-Hessian is (c c^T) (x) (E h A lambda e e^T + E h A eps_k / |f_k| (I - e e^T)) and each node's share
+Hessian is (c c^T) (x) (E h A lambda_k e e^T + E h A eps_k / |f_k| (I - e e^T)) and each node's share
 is bounded by |c_ka| sum_b |c_kb| times that block (Cauchy-Schwarz). The neo-Hookean triangle
 and Gent triangles get the Gershgorin row sums of their Hessian (central differences of the exact gradient).
 """
@@ -29,16 +31,18 @@ import numpy as np
 from numba import njit
 
 from .blocks import add_block
-from .checks import positive
+from .checks import positive, prestretch_tensor
 from .errors import DRError
 from .vec import add_to, axpy, get, norm, scale
 
 LINEAR, NEO_HOOKEAN, GENT = 0, 1, 2
 LAWS = {"linear": LINEAR, "neo-hookean": NEO_HOOKEAN, "gent": GENT}
 
-# columns of Packed.tri_par (JM: Gent's Jm, read by the Gent law only)
-AREA, EH, LAM, TONLY, LAW, JM = range(6)
-N_PAR = 6
+# columns of Packed.tri_par (JM: Gent's Jm, read by the Gent law only; LAM, LAM1, LAM2: the
+# linear law's pre-stretch along each lattice direction, LAM the incompressible laws' lambda)
+AREA, EH, LAM, TONLY, LAW, JM, LAM1, LAM2 = range(8)
+N_PAR = 8
+FAMILY_LAM = (LAM, LAM1, LAM2)
 
 _C = math.cos(math.pi / 3.0)
 _S = math.sin(math.pi / 3.0)
@@ -51,18 +55,19 @@ class Fields(NamedTuple):
 
     tri_idx: np.ndarray  # (t, 3) membrane triangles
     tri_grad: np.ndarray  # (t, 3, 2) flat shape-function gradients, 1/mm
-    tri_par: np.ndarray  # (t, 6) area, E h, lambda, tension-only, law, Gent Jm
+    tri_par: np.ndarray  # (t, 8) area, E h, lambda, tension-only, law, Gent Jm, lambda_1, lambda_2
 
 
 class Methods:
     """The :class:`dr.Model` method that adds membrane triangles."""
 
-    def add_triangles(self, triangles: np.ndarray, *, E: float, thickness: float, prestretch: float,
+    def add_triangles(self, triangles: np.ndarray, *, E: float, thickness: float, prestretch: float | np.ndarray,
                       law: str = "linear", tension_only: bool = True, gent_jm: float = np.inf) -> None:
         """Add constant-strain membrane triangles (:mod:`dr.triangles`) over node triples.
 
         The reference triangles lie in the plane z = const of the nodes (the flat film); the
-        rest state is that shrunk by 1 / ``prestretch``. ``law`` is 'linear' (the link-net
+        rest state is that shrunk by 1 / ``prestretch``, or mapped by P^-1 for a pre-stretch
+        tensor P (2, 2) in the nodes' x, y (symmetric, positive definite). ``law`` is 'linear' (the link-net
         law, lattice directions at 0, 60, 120 deg from the x axis), 'neo-hookean' or 'gent'
         (with ``gent_jm``, Gent's Jm > 0). Units: E in MPa, the mounted thickness in mm.
         """
@@ -79,13 +84,23 @@ class Methods:
         if np.any(area <= 1e-12 * np.ptp(self.nodes[:, :2]) ** 2):
             raise DRError("a membrane triangle has no area: its three nodes lie on one line")
         self.stored[Fields].append((t, positive("membrane E (MPa)", E), positive("membrane thickness (mm)", thickness),
-                                positive("pre-stretch", prestretch), bool(tension_only), LAWS[law],
-                                positive("Gent Jm", gent_jm) if law == "gent" else np.inf))
+                                    prestretch_value(prestretch), bool(tension_only), LAWS[law],
+                                    positive("Gent Jm", gent_jm) if law == "gent" else np.inf))
+
+
+def prestretch_value(prestretch: float | np.ndarray) -> float | np.ndarray:
+    """A pre-stretch ratio (> 0), or a pre-stretch tensor (2, 2)."""
+    return positive("pre-stretch", prestretch) if np.ndim(prestretch) == 0 else prestretch_tensor(prestretch)
 
 
 def scale_membrane(stored: list, factor: float) -> list:
     """The triangles of ``stored`` with rest lengths times ``factor`` (pre-stretch over it)."""
     return [(t, E, h, lam / factor, to, law, jm) for t, E, h, lam, to, law, jm in stored]
+
+
+def prestretch_membrane(stored: list, model, P: np.ndarray) -> list:
+    """The triangles of ``stored`` with the pre-stretch tensor ``P`` (2, 2)."""
+    return [(t, E, h, P, to, law, jm) for t, E, h, _, to, law, jm in stored]
 
 
 def pack(model, rest) -> Fields:
@@ -99,7 +114,13 @@ def pack(model, rest) -> Fields:
         par = np.zeros((t.shape[0], N_PAR))
         par[:, AREA] = area
         par[:, EH] = E * h
-        par[:, LAM] = lam
+        if np.ndim(lam) == 0:
+            par[:, [LAM, LAM1, LAM2]] = lam
+        elif law == LINEAR:  # each lattice direction's pre-stretch 1 / |P^-1 m_k|
+            par[:, [LAM, LAM1, LAM2]] = 1.0 / np.linalg.norm(np.linalg.solve(lam, DIRECTIONS.T), axis=0)
+        else:  # the gradients from the rest state: F P = sum_a x_a (P grad N_a)^T
+            g = g @ lam
+            par[:, [LAM, LAM1, LAM2]] = 1.0
         par[:, TONLY] = float(tension_only)
         par[:, LAW] = law
         par[:, JM] = jm
@@ -146,8 +167,9 @@ def _family(x0, x1, x2, gN, k):
 
 
 @njit(cache=True, error_model="numpy", inline="always")
-def _strain(par, lf):
-    eps = par[LAM] * lf - 1.0
+def _strain(par, k, lf):
+    """Family k's strain lambda_k |F m_k| - 1 (0 where slack and tension-only)."""
+    eps = par[FAMILY_LAM[k]] * lf - 1.0
     if par[TONLY] > 0.0 and eps < 0.0:
         return 0.0
     return eps
@@ -201,17 +223,20 @@ def triangle_local(xl, gN, par, gl, want_grad):
                 for i in range(3):
                     gl[a, i] += par[AREA] * (P[i, 0] * gN[a, 0] + P[i, 1] * gN[a, 1])
         return par[AREA] * W
-    w = 0.0
+    w, w_rest = 0.0, 0.0  # sum eps_k^2, and over lambda_k
     for k in range(3):
         f, c = _family(get(xl, 0), get(xl, 1), get(xl, 2), gN, k)
         lf = norm(f)
-        eps = _strain(par, lf)
+        eps = _strain(par, k, lf)
         w += eps * eps
+        w_rest += eps * eps / par[FAMILY_LAM[k]]
         if want_grad:
             t = par[AREA] * par[EH] * eps / lf  # d(energy)/df divided by |f|, N/mm
             for a in range(3):
                 add_to(gl, a, f, t * c[a])
-    return par[AREA] * par[EH] / (2.0 * par[LAM]) * w
+    if par[LAM1] == par[LAM] and par[LAM2] == par[LAM]:  # isotropic: the sum as it always was
+        return par[AREA] * par[EH] / (2.0 * par[LAM]) * w
+    return 0.5 * par[AREA] * par[EH] * w_rest
 
 
 @njit(cache=True, error_model="numpy", inline="always")
@@ -246,11 +271,11 @@ def _linear_gradient(X, idx, gN, par, G, D):
     stiffness blocks; one pass over the families for both. Returns the largest nodal force, N."""
     x0, x1, x2 = get(X, idx[0]), get(X, idx[1]), get(X, idx[2])
     g0, g1, g2 = (0.0, 0.0, 0.0), (0.0, 0.0, 0.0), (0.0, 0.0, 0.0)
-    k_axial = par[AREA] * par[EH] * par[LAM]
     for k in range(3):
+        k_axial = par[AREA] * par[EH] * par[FAMILY_LAM[k]]
         f, c = _family(x0, x1, x2, gN, k)
         lf = norm(f)
-        force = par[AREA] * par[EH] * _strain(par, lf)  # d(energy)/d|f|, N mm
+        force = par[AREA] * par[EH] * _strain(par, k, lf)  # d(energy)/d|f|, N mm
         e = scale(f, 1.0 / lf)
         g0, g1, g2 = axpy(force * c[0], e, g0), axpy(force * c[1], e, g1), axpy(force * c[2], e, g2)
         if D.shape[0] > 0:
@@ -299,11 +324,11 @@ def triangle_stiffness(X, idx, gN, par, S, with_links, xl):
         return
     if not with_links:
         return
-    k_axial = par[AREA] * par[EH] * par[LAM]
     for k in range(3):
+        k_axial = par[AREA] * par[EH] * par[FAMILY_LAM[k]]
         f, c = _family(get(xl, 0), get(xl, 1), get(xl, 2), gN, k)
         lf = norm(f)
-        k_geo = abs(par[AREA] * par[EH] * _strain(par, lf)) / lf
+        k_geo = abs(par[AREA] * par[EH] * _strain(par, k, lf)) / lf
         csum = abs(c[0]) + abs(c[1]) + abs(c[2])
         for a in range(3):
             S[idx[a]] += abs(c[a]) * csum * (k_axial + k_geo)

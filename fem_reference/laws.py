@@ -5,7 +5,8 @@ three entries (g11, g22, g12). A law gives W and its first and second derivative
 closed form; the chain rule to F and the sums over an element's quadrature points are one
 compiled loop, which fills element vectors and matrices for a fixed sparsity pattern.
 
-Laws (``membrane.law``), energies per unit flat area (N/mm), h the mounted thickness:
+Laws (``membrane.law``), energies per unit flat area (N/mm), h the mounted thickness, lambda the
+isotropic pre-stretch (an unequal one: :func:`prestretch_row`):
 
 * ``"linear"``: W = E h / (2 lambda) sum_k eps_k^2, eps_k = lambda sqrt(m_k^T g m_k) - 1 over the
   lattice directions m_k at 0, 60 and 120 deg (the DR link net's continuum limit); with
@@ -18,6 +19,11 @@ Laws (``membrane.law``), energies per unit flat area (N/mm), h the mounted thick
 
 The two incompressible laws share one code path: W = mu h / 2 f(I1 - 3) with f(x) = x or
 -Jm ln(1 - x / Jm), the chain rule through I1's closed-form derivatives in g.
+
+An unequal pre-stretch P (2, 2) (:mod:`scenes.prestretch`): the linear law takes each lattice
+direction's own pre-stretch lambda_k = 1 / |P^-1 m_k| in place of lambda (a fibre of flat
+direction m_k rests at |P^-1 m_k| per unit flat length); the incompressible laws are evaluated
+at lambda = 1 on the metric from the rest state, C = P g P.
 """
 
 from __future__ import annotations
@@ -36,19 +42,31 @@ _DIRECTIONS = np.column_stack([np.cos(_ANGLES) ** 2, np.sin(_ANGLES) ** 2,
 """d(m^T g m)/d(g11, g22, g12) of each lattice direction m."""
 
 
+def prestretch_row(path, lam: float) -> np.ndarray:
+    """The laws' pre-stretch at path value ``lam`` of a :class:`scenes.prestretch.PrestretchPath`:
+    (lambda_0, lambda_1, lambda_2, P11, P22, P12), the linear law's pre-stretch along each lattice
+    direction and the tensor P's entries; (lam, lam, lam, lam, lam, 0) where isotropic."""
+    if path.isotropic:
+        return np.array([lam, lam, lam, lam, lam, 0.0])
+    P = path.tensor(lam)
+    directions = np.column_stack([np.cos(_ANGLES), np.sin(_ANGLES)])
+    return np.concatenate([path.fibre_stretches(lam, directions), [P[0, 0], P[1, 1], P[0, 1]]])
+
+
 @numba.njit(cache=True)
-def _law(law: int, g: np.ndarray, lam: float, E: float, h: float, tension_only: bool, jm: float,
+def _law(law: int, g: np.ndarray, pre: np.ndarray, E: float, h: float, tension_only: bool, jm: float,
          dW: np.ndarray, d2W: np.ndarray, order: int) -> float:
     """W (N/mm) at metric entries g = (g11, g22, g12); fills dW (3,) and d2W (3, 3) for order >= 1.
-    ``jm``: Gent's Jm (only read by the Gent law)."""
+    ``pre``: :func:`prestretch_row`; ``jm``: Gent's Jm (only read by the Gent law)."""
     for a in range(3):
         dW[a] = 0.0
         for b in range(3):
             d2W[a, b] = 0.0
     if law == 0:
-        c = E * h / (2.0 * lam)
         W = 0.0
         for k in range(3):
+            lam = pre[k]
+            c = E * h / (2.0 * lam)
             v = _DIRECTIONS[k]
             s = v[0] * g[0] + v[1] * g[1] + v[2] * g[2]
             r = np.sqrt(s)
@@ -64,6 +82,35 @@ def _law(law: int, g: np.ndarray, lam: float, E: float, h: float, tension_only: 
                     for b in range(3):
                         d2W[a, b] += d2 * v[a] * v[b]
         return W
+    if pre[5] == 0.0 and pre[3] == pre[4]:
+        return _incompressible(law, g, pre[3], E, h, jm, dW, d2W, order)
+    # unequal: the law of C = P g P at lambda = 1, C = T g linear in g's entries, so
+    # dW/dg = T^T dW/dC and d2W/dg2 = T^T d2W/dC2 T
+    p11, p22, p12 = pre[3], pre[4], pre[5]
+    T = np.array([[p11 * p11, p12 * p12, 2.0 * p11 * p12],
+                  [p12 * p12, p22 * p22, 2.0 * p12 * p22],
+                  [p11 * p12, p12 * p22, p11 * p22 + p12 * p12]])
+    C = np.zeros(3)
+    for i in range(3):
+        C[i] = T[i, 0] * g[0] + T[i, 1] * g[1] + T[i, 2] * g[2]
+    dC = np.zeros(3)
+    d2C = np.zeros((3, 3))
+    W = _incompressible(law, C, 1.0, E, h, jm, dC, d2C, order)
+    if order >= 1:
+        for a in range(3):
+            for i in range(3):
+                dW[a] += T[i, a] * dC[i]
+                for b in range(3):
+                    for j in range(3):
+                        d2W[a, b] += T[i, a] * d2C[i, j] * T[j, b]
+    return W
+
+
+@numba.njit(cache=True)
+def _incompressible(law: int, g: np.ndarray, lam: float, E: float, h: float, jm: float,
+                    dW: np.ndarray, d2W: np.ndarray, order: int) -> float:
+    """The neo-Hookean (law 1) and Gent (law 2) W at metric entries g and isotropic pre-stretch
+    ``lam``, with dW and d2W (zeroed by the caller) for order >= 1."""
     c = E * h / 6.0  # mu h / 2
     q = lam ** -4
     D = g[0] * g[1] - g[2] * g[2]
@@ -104,7 +151,7 @@ def _metric_gradient(F: np.ndarray, Dg: np.ndarray) -> None:
 
 @numba.njit(cache=True)
 def element_terms(u: np.ndarray, dofs: np.ndarray, G: np.ndarray, dx: np.ndarray, law: int,
-                  lam: float, E: float, h: float, tension_only: bool, jm: float, order: int):
+                  pre: np.ndarray, E: float, h: float, tension_only: bool, jm: float, order: int):
     """Energies, forces and tangents of all elements.
 
     Parameters
@@ -148,7 +195,7 @@ def element_terms(u: np.ndarray, dofs: np.ndarray, G: np.ndarray, dx: np.ndarray
             g[0] = F[0, 0] ** 2 + F[1, 0] ** 2 + F[2, 0] ** 2
             g[1] = F[0, 1] ** 2 + F[1, 1] ** 2 + F[2, 1] ** 2
             g[2] = F[0, 0] * F[0, 1] + F[1, 0] * F[1, 1] + F[2, 0] * F[2, 1]
-            w = _law(law, g, lam, E, h, tension_only, jm, dW, d2W, order)
+            w = _law(law, g, pre, E, h, tension_only, jm, dW, d2W, order)
             W[e, q] = w
             We[e] += w * dx[e, q]
             if order < 1:
@@ -184,7 +231,7 @@ def element_terms(u: np.ndarray, dofs: np.ndarray, G: np.ndarray, dx: np.ndarray
 
 
 @numba.njit(cache=True)
-def point_stress(F: np.ndarray, law: int, lam: float, E: float, h: float, tension_only: bool,
+def point_stress(F: np.ndarray, law: int, pre: np.ndarray, E: float, h: float, tension_only: bool,
                  jm: float) -> np.ndarray:
     """First Piola-Kirchhoff membrane stress P = dW/dF (npts, 3, 2), N/mm, at gradients F (npts, 3, 2)."""
     P = np.zeros(F.shape)
@@ -197,7 +244,7 @@ def point_stress(F: np.ndarray, law: int, lam: float, E: float, h: float, tensio
         g[0] = Fp[0, 0] ** 2 + Fp[1, 0] ** 2 + Fp[2, 0] ** 2
         g[1] = Fp[0, 1] ** 2 + Fp[1, 1] ** 2 + Fp[2, 1] ** 2
         g[2] = Fp[0, 0] * Fp[0, 1] + Fp[1, 0] * Fp[1, 1] + Fp[2, 0] * Fp[2, 1]
-        _law(law, g, lam, E, h, tension_only, jm, dW, d2W, 1)
+        _law(law, g, pre, E, h, tension_only, jm, dW, d2W, 1)
         _metric_gradient(Fp, Dg)
         for i in range(3):
             for j in range(2):

@@ -30,7 +30,9 @@ import numpy as np
 import scipy.sparse as sp
 from skfem import CellBasis
 
-from .laws import LAW_IDS, LATTICE_ANGLES_DEG, element_terms, point_stress
+from scenes.prestretch import PrestretchPath
+
+from .laws import LAW_IDS, LATTICE_ANGLES_DEG, element_terms, point_stress, prestretch_row
 
 __all__ = ["Membrane", "MembraneState", "LATTICE_ANGLES_DEG"]
 
@@ -74,13 +76,17 @@ class Membrane:
         ``membrane.law``, Young's modulus (MPa), mounted thickness (mm), slack links carry nothing.
     jm
         Gent's Jm (``membrane.gent_jm``), read by the Gent law only.
+    path
+        How the pre-stretch is applied (:mod:`scenes.prestretch`): the methods' ``lam`` is the
+        path value (the pre-stretch itself where isotropic).
     """
 
-    def __init__(self, basis, law: str, E: float, h: float, tension_only: bool, jm: float = np.inf):
+    def __init__(self, basis, law: str, E: float, h: float, tension_only: bool, jm: float = np.inf,
+                 path: PrestretchPath = PrestretchPath()):
         if law not in LAW_IDS:
             raise ValueError(f"membrane.law = {law!r} is not one of {', '.join(LAW_IDS)}")
         self.basis = basis
-        self.law, self.E, self.h, self.tension_only, self.jm = law, E, h, tension_only, jm
+        self.law, self.E, self.h, self.tension_only, self.jm, self.path = law, E, h, tension_only, jm, path
         locs = basis.doflocs[:, ::3]  # one location per node
         self.X = np.column_stack([locs[0], locs[1], np.zeros(locs.shape[1])])  # (nn, 3) mm
         # the scalar element on the same quadrature: its node numbering is the vector DOF / 3
@@ -99,7 +105,7 @@ class Membrane:
 
     def _terms(self, x: np.ndarray, lam: float, order: int):
         return element_terms(np.ascontiguousarray(x - self.X, dtype=float), self._dofs, self._grads,
-                             self._dx, LAW_IDS[self.law], float(lam), float(self.E), float(self.h),
+                             self._dx, LAW_IDS[self.law], prestretch_row(self.path, float(lam)), float(self.E), float(self.h),
                              bool(self.tension_only), float(self.jm), order)
 
     def deformation_gradient(self, x: np.ndarray) -> np.ndarray:
@@ -122,7 +128,7 @@ class Membrane:
         if order == 0:
             return MembraneState(F, W, None)
         flat = np.ascontiguousarray(np.moveaxis(F, (0, 1), (-2, -1)).reshape(-1, 3, 2))
-        P = point_stress(flat, LAW_IDS[self.law], float(lam), float(self.E), float(self.h),
+        P = point_stress(flat, LAW_IDS[self.law], prestretch_row(self.path, float(lam)), float(self.E), float(self.h),
                          bool(self.tension_only), float(self.jm))
         return MembraneState(F, W, np.moveaxis(P.reshape(*F.shape[2:], 3, 2), (-2, -1), (0, 1)))
 

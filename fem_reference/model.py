@@ -61,7 +61,8 @@ class DemesProblem:
         self.scene = scene
         self.mesh: MembraneMesh = build_mesh(scene, refinement, element)
         mem = scene.membrane
-        self.membrane = Membrane(self.mesh.basis, mem.law, mem.E, mem.thickness, mem.tension_only, mem.gent_jm)
+        self.membrane = Membrane(self.mesh.basis, mem.law, mem.E, mem.thickness, mem.tension_only, mem.gent_jm,
+                                 path=scene.prestretch_path)
         # at scene.loading.voltage; set .coefficient (dielectric_coefficient) to change it
         self.dielectric = Dielectric(self.mesh.basis, dielectric_coefficient(scene))
         self.X = self.membrane.X

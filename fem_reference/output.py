@@ -8,6 +8,7 @@ from results import CellBlock
 from results.film import FilmLaw, film_fields
 from scenes import Scene
 
+from .laws import prestretch_row
 from .membrane import LATTICE_ANGLES_DEG
 from .model import DemesProblem
 
@@ -37,21 +38,26 @@ def compressed_fraction(problem: DemesProblem, y: np.ndarray) -> float:
 def _family_strains(problem: DemesProblem, y: np.ndarray) -> np.ndarray:
     """Strain from the rest state of the link-net law's three lattice families, (3, nel, nqp)."""
     F = problem.membrane.deformation_gradient(problem.film_positions(y))  # (3, 2, nel, nqp)
-    return np.array([np.linalg.norm(np.einsum("ij...,j->i...", F, [np.cos(a), np.sin(a)]), axis=0) * problem.lam - 1.0
-                     for a in np.radians(LATTICE_ANGLES_DEG)])
+    lams = prestretch_row(problem.membrane.path, problem.lam)[:3]  # each family's pre-stretch
+    return np.array([np.linalg.norm(np.einsum("ij...,j->i...", F, [np.cos(a), np.sin(a)]), axis=0) * lam - 1.0
+                     for a, lam in zip(np.radians(LATTICE_ANGLES_DEG), lams)])
 
 
 def paper_formula_membrane_energy(problem: DemesProblem, y: np.ndarray) -> float:
     """The link-net film's energy by the paper's formula N eps L / 2 with the current length L,
-    N mm: the exact density E h / (2 lambda) sum eps_k^2 times (1 + eps_k) per family (NaN for
-    the neo-Hookean film, which has no links)."""
+    N mm: the exact density E h / (2 lambda_k) eps_k^2 times (1 + eps_k) summed over the families
+    (NaN for the neo-Hookean film, which has no links)."""
     m = problem.membrane
     if m.law != "linear":
         return float("nan")
     eps = _family_strains(problem, y)
     if m.tension_only:
         eps = np.maximum(eps, 0.0)
-    density = m.E * m.h / (2.0 * problem.lam) * np.sum(eps**2 * (1.0 + eps), axis=0)
+    w = eps**2 * (1.0 + eps)
+    if m.path.isotropic:
+        density = m.E * m.h / (2.0 * problem.lam) * np.sum(w, axis=0)
+    else:
+        density = 0.5 * m.E * m.h * np.sum(w / prestretch_row(m.path, problem.lam)[:3, None, None], axis=0)
     return float((m.basis.dx * density).sum())
 
 

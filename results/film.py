@@ -54,7 +54,7 @@ class FilmLaw:
     thickness
         Mounted (flat, pre-stretched) thickness h_m, mm.
     prestretch
-        lambda, -.
+        lambda, -: the pre-stretch's path value (the pre-stretch itself where isotropic).
     tension_only
         A compressed link family carries nothing (linear law).
     gent_jm
@@ -65,6 +65,9 @@ class FilmLaw:
         Voltage across the film, V.
     electric_thickness
         Mounted thickness for the electric field, mm (``scenes.electric.mounted_thickness``).
+    prestretch_tensor
+        An unequal pre-stretch's tensor P (2, 2) in the flat x, y (``scenes.prestretch``); None
+        where isotropic.
     """
 
     law: str
@@ -76,6 +79,7 @@ class FilmLaw:
     permittivity: float = 0.0
     voltage: float = 0.0
     electric_thickness: float | None = None
+    prestretch_tensor: np.ndarray | None = None
 
     @classmethod
     def of_scene(cls, scene: Any) -> "FilmLaw":
@@ -83,8 +87,10 @@ class FilmLaw:
         from scenes.electric import EPSILON_0, mounted_thickness  # results must not need scenes for plain use
 
         m = scene.membrane
+        path = scene.prestretch_path
         return cls(m.law, m.E, m.thickness, scene.prestretch, m.tension_only, m.gent_jm,
-                   EPSILON_0 * m.permittivity, scene.loading.voltage, mounted_thickness(scene))
+                   EPSILON_0 * m.permittivity, scene.loading.voltage, mounted_thickness(scene),
+                   None if path.isotropic else path.tensor(scene.prestretch))
 
 
 def triangle_gradients(flat: np.ndarray, x: np.ndarray, triangles: np.ndarray) -> np.ndarray:
@@ -97,9 +103,13 @@ def triangle_gradients(flat: np.ndarray, x: np.ndarray, triangles: np.ndarray) -
     return dx @ np.linalg.inv(dX)
 
 
-def family_strains(F: np.ndarray, prestretch: float) -> np.ndarray:
-    """Strains (t, 3) from the rest state of the linear law's link families, lambda |F m_k| - 1."""
-    return prestretch * np.linalg.norm(F @ _M.T, axis=1) - 1.0
+def family_strains(F: np.ndarray, prestretch: float, tensor: np.ndarray | None = None) -> np.ndarray:
+    """Strains (t, 3) from the rest state of the linear law's link families, lambda_k |F m_k| - 1:
+    lambda_k = ``prestretch``, or 1 / |P^-1 m_k| for a pre-stretch ``tensor`` P (2, 2)."""
+    if tensor is None:
+        return prestretch * np.linalg.norm(F @ _M.T, axis=1) - 1.0
+    lams = 1.0 / np.linalg.norm(np.linalg.solve(tensor, _M.T), axis=0)
+    return lams * np.linalg.norm(F @ _M.T, axis=1) - 1.0
 
 
 # a triangle collapsed in a fold has J = 0 (or a round-off below): its thickness and stresses
@@ -116,9 +126,9 @@ def film_fields(F: np.ndarray, film: FilmLaw, strains: np.ndarray | None = None)
     C = np.swapaxes(F, 1, 2) @ F
     det = C[:, 0, 0] * C[:, 1, 1] - C[:, 0, 1] ** 2
     J = np.sqrt(np.maximum(det, 0.0))
-    lam = film.prestretch
+    lam, P = film.prestretch, film.prestretch_tensor
     if film.law == "linear":
-        eps = family_strains(F, lam)
+        eps = family_strains(F, lam, P)
         if strains is not None:
             eps = np.where(np.isnan(strains), eps, strains)
         carried = np.maximum(eps, 0.0) if film.tension_only else eps
@@ -126,13 +136,17 @@ def film_fields(F: np.ndarray, film: FilmLaw, strains: np.ndarray | None = None)
         S = film.E * np.einsum("tk,ki,kj->tij", carried / length, _M, _M)
         n_slack = np.sum(eps <= 0.0, axis=1)
         n_families = 3
+    elif film.law in ("neo-hookean", "gent") and P is not None:
+        # from the rest state: C_r = P C P, S = E / 3 f'(I1 - 3) P (I - C_r^-1 / det C_r) P
+        Cr = P @ C @ P
+        det_r = Cr[:, 0, 0] * Cr[:, 1, 1] - Cr[:, 0, 1] ** 2
+        x = Cr[:, 0, 0] + Cr[:, 1, 1] + 1.0 / det_r - 3.0  # I1 - 3
+        df = _law_slope(film, x)
+        S = (film.E / 3.0 * df)[:, None, None] * (P @ (np.eye(2) - np.linalg.inv(Cr) / det_r[:, None, None]) @ P)
+        n_slack, n_families = None, 2
     elif film.law in ("neo-hookean", "gent"):
         x = lam**2 * (C[:, 0, 0] + C[:, 1, 1]) + 1.0 / (lam**4 * det) - 3.0  # I1 - 3
-        if film.law == "gent":
-            with np.errstate(divide="ignore"):
-                df = np.where(x < film.gent_jm, 1.0 / (1.0 - x / film.gent_jm), np.inf)
-        else:
-            df = np.ones_like(x)
+        df = _law_slope(film, x)
         C_inv = np.linalg.inv(C)
         S = (film.E / 3.0 * df)[:, None, None] * (lam**2 * np.eye(2) - C_inv / (lam**4 * det)[:, None, None])
         n_slack, n_families = None, 2
@@ -143,7 +157,8 @@ def film_fields(F: np.ndarray, film: FilmLaw, strains: np.ndarray | None = None)
         floor = SLACK_FRACTION * max(float(np.nanmax(np.abs(stress), initial=0.0)), 1e-300)
         n_slack = np.sum(stress <= floor, axis=1)
     state = np.where(n_slack == 0, TAUT, np.where(n_slack == n_families, SLACK, PARTLY_SLACK))
-    stretch = lam * np.sqrt(np.maximum(_eigenvalues(C), 0.0))
+    stretch = (lam * np.sqrt(np.maximum(_eigenvalues(C), 0.0)) if P is None
+               else np.sqrt(np.maximum(_eigenvalues(P @ C @ P), 0.0)))
     electric = film.thickness if film.electric_thickness is None else film.electric_thickness
     return {
         "stretch_1": stretch[:, 0],
@@ -154,6 +169,14 @@ def film_fields(F: np.ndarray, film: FilmLaw, strains: np.ndarray | None = None)
         "slack_state": state.astype(float),
         "maxwell_pressure_MPa": film.permittivity * (film.voltage * J / electric) ** 2,
     }
+
+
+def _law_slope(film: FilmLaw, x: np.ndarray) -> np.ndarray:
+    """f'(I1 - 3) of the incompressible laws: 1 (neo-Hookean), 1 / (1 - x / Jm) (Gent; inf past the lock)."""
+    if film.law == "gent":
+        with np.errstate(divide="ignore"):
+            return np.where(x < film.gent_jm, 1.0 / (1.0 - x / film.gent_jm), np.inf)
+    return np.ones_like(x)
 
 
 def _eigenvalues(A: np.ndarray) -> np.ndarray:

@@ -17,6 +17,7 @@ from typing import Any
 
 from .errors import DemesError, SceneError
 from .geometry import Outline
+from .prestretch import PrestretchPath
 from .scene import (
     DRSpec,
     FEMSpec,
@@ -41,6 +42,7 @@ __all__ = [
     "SceneError",
     "DemesError",
     "Outline",
+    "PrestretchPath",
     "FrameSpec",
     "MembraneSpec",
     "LoadingSpec",

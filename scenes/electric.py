@@ -24,12 +24,13 @@ EPSILON_0 = 8.8541878128e-12
 
 
 def mounted_thickness(scene: Scene) -> float:
-    """Electrical thickness of the flat, pre-stretched film, mm: H / prestretch^2 (incompressible).
+    """Electrical thickness of the flat, pre-stretched film, mm: H / (l1 l2) (incompressible;
+    H / prestretch^2 where isotropic).
 
     Without ``membrane.unstretched_thickness`` it is ``membrane.thickness``.
     """
     H = scene.membrane.unstretched_thickness
-    return scene.membrane.thickness if H is None else H / scene.prestretch**2
+    return scene.membrane.thickness if H is None else H / scene.prestretch_path.area_stretch(scene.prestretch)
 
 
 def dielectric_coefficient(scene: Scene, voltage: float | None = None) -> float:

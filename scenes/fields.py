@@ -105,6 +105,18 @@ def prestretch_value(name: str, value: Any) -> float:
     return v
 
 
+@checked(f"a number or a pair [l1, l2], each in [1, {PRESTRETCH_MAX:g}]")
+def prestretch_spec(name: str, value: Any) -> float | tuple[float, float]:
+    """A pre-stretch ratio, or a pair of principal pre-stretches along the pre-stretch axes."""
+    if isinstance(value, (list, tuple)):
+        if len(value) != 2:
+            raise SceneError(
+                f"{name} = {show_value(value)}: give one ratio (isotropic, e.g. 1.5) or a pair [l1, l2] "
+                "(along the pre-stretch axes, e.g. [1.3, 1.0])")
+        return tuple(prestretch_value(f"{name}[{i}]", v) for i, v in enumerate(value))  # type: ignore[return-value]
+    return prestretch_value(name, value)
+
+
 @checked(">= 1")
 def permittivity_value(name: str, value: Any) -> float:
     v = _number(name, value)

@@ -16,8 +16,9 @@ import numpy as np
 from .errors import SceneError
 from .fields import (PRESTRETCH_MAX, Section, between, boolean, finite, gent_jm_value, integer_at_least,
                      non_negative, one_of, optional, permittivity_value, positive, prestretch_list,
-                     prestretch_value, show_value, spec, vertex_list)
+                     prestretch_spec, show_value, spec, vertex_list)
 from .geometry import Outline, equilateral_triangle
+from .prestretch import PrestretchPath
 
 MAX_DIVISIONS = 400
 """Most mesh divisions per side (about 70,000 DR nodes)."""
@@ -168,21 +169,33 @@ class MembraneSpec(Section):
         None,
         optional(positive),
         "mm",
-        "film thickness H before pre-stretch, for the electric field; default thickness * prestretch^2",
+        "film thickness H before pre-stretch, for the electric field; default thickness * l1 l2 "
+        "(prestretch^2 where isotropic)",
     )
 
 
 @dataclass(frozen=True)
 class LoadingSpec(Section):
-    """Pre-stretch ratio (1.0 = none) and the sweep that ``demes solve`` runs by default."""
+    """Pre-stretch (1.0 = none) and the sweep that ``demes solve`` runs by default. A pair
+    [l1, l2] pre-stretches the film unequally along the pre-stretch axes (the scene's x and y
+    turned by prestretch_angle). The solvers apply a pair along the straight line from (1, 1),
+    and a pre-stretch level (of the sweep, of ``--prestretch``) is its larger member, the other
+    following the line: a scene at [1.3, 1.0] is at 1.2 on its path at [1.2, 1.0]."""
 
     _prefix = "loading"
-    prestretch: float = spec(1.5, prestretch_value, "", "isotropic pre-stretch ratio")
+    prestretch: float | tuple = spec(
+        1.5, prestretch_spec, "",
+        "pre-stretch ratio (isotropic), or a pair [l1, l2]: the principal pre-stretches along the "
+        "pre-stretch axes (x, y turned by prestretch_angle)")
+    prestretch_angle: float = spec(
+        0.0, between(-180.0, 180.0), "deg",
+        "turn of the pre-stretch axes from the scene's x, y (counter-clockwise); read with a pair only")
     sweep: tuple = spec(
         (1.0, 1.1, 1.2, 1.3, 1.4, 1.5, 1.6, 1.7, 1.8, 1.9, 2.0),
         prestretch_list,
         "",
-        "pre-stretch ratios of a sweep",
+        "pre-stretch levels of a sweep: the ratio, or for a pair its larger member (the other on the "
+        "line from 1 to the pair)",
     )
     voltage: float = spec(0.0, non_negative, "V", "voltage across the film's electrodes")
 
@@ -359,8 +372,14 @@ class Scene:
 
     @property
     def prestretch(self) -> float:
-        """The scene's pre-stretch ratio."""
-        return self.loading.prestretch
+        """The pre-stretch's path value: the ratio, or the larger of a pair (:mod:`scenes.prestretch`)."""
+        p = self.loading.prestretch
+        return max(p) if isinstance(p, tuple) else p
+
+    @property
+    def prestretch_path(self) -> PrestretchPath:
+        """How the pre-stretch is applied along the path (isotropic, or a pair's line from 1)."""
+        return PrestretchPath.of(self.loading.prestretch, self.loading.prestretch_angle)
 
     @property
     def outline(self) -> Outline:
@@ -399,12 +418,16 @@ class Scene:
     def updated(self, **changes: Any) -> "Scene":
         """A checked copy with fields changed by dotted name: ``updated(**{"frame.model": "strip"})``.
 
-        ``prestretch=1.3`` is short for ``loading.prestretch``.
+        ``prestretch=1.3`` is short for ``loading.prestretch``; on a scene with a pair, a number
+        is a path value and moves the pair along its line (:mod:`scenes.prestretch`).
         """
         data = self.to_dict()
         for key, value in changes.items():
             if key == "prestretch":
                 key = "loading.prestretch"
+                path = self.prestretch_path
+                if not path.isotropic and isinstance(value, (int, float)) and not isinstance(value, bool):
+                    value = list(path.pair(float(value)))
             path = key.split(".")
             node = data
             for p in path[:-1]:

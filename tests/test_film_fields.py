@@ -1,6 +1,7 @@
 """The film's per-triangle fields (results.film): closed forms of flat stretched films, the
 solvers' own laws at arbitrary deformations, and both solvers' ParaView output."""
 
+import dataclasses
 import warnings
 
 import numpy as np
@@ -11,12 +12,13 @@ import dr
 import fem_reference
 import scenes
 from dr.triangles import DIRECTIONS
-from fem_reference.laws import LAW_IDS, point_stress
+from fem_reference.laws import LAW_IDS, point_stress, prestretch_row
 from fem_reference.membrane import LATTICE_ANGLES_DEG as FEM_ANGLES
 from fem_reference.model import DemesProblem
 from results.film import (LATTICE_ANGLES_DEG, PARTLY_SLACK, SLACK, TAUT, FilmLaw, film_fields,
                           triangle_gradients)
 from scenes.electric import EPSILON_0
+from scenes.prestretch import PrestretchPath
 from validation.cli import main
 from validation.actuation.electromechanics import maxwell_stress
 
@@ -127,18 +129,24 @@ def test_the_lattice_is_the_solvers_lattice():
                                                 np.sin(np.radians(LATTICE_ANGLES_DEG))]), DIRECTIONS, atol=1e-15)
 
 
+@pytest.mark.parametrize("pair", [None, (1.3, 1.05)], ids=["isotropic", "unequal"])
 @pytest.mark.parametrize("law, tension_only", [("linear", True), ("linear", False), ("neo-hookean", False),
                                                ("gent", False)])
-def test_stress_is_the_fem_laws_p_ft_over_h(law, tension_only):
+def test_stress_is_the_fem_laws_p_ft_over_h(law, tension_only, pair):
     """At arbitrary deformations (some families compressed) the principal Cauchy stresses are
     those of P F^T / h_m with P = dW/dF of fem_reference.laws (the DR triangles' law too:
-    tests/test_one_problem.py gives both one energy): in-plane trace and determinant agree."""
+    tests/test_one_problem.py gives both one energy), at an isotropic and an unequal pre-stretch
+    (axes turned by 25 deg): in-plane trace and determinant agree."""
     rng = np.random.default_rng(4)
     F = np.eye(3, 2) + 0.25 * rng.normal(size=(200, 3, 2))
     lam = 1.3
-    P = point_stress(F, LAW_IDS[law], lam, E, H, tension_only, JM)
+    path = PrestretchPath() if pair is None else PrestretchPath.of(pair, 25.0)
+    P = point_stress(F, LAW_IDS[law], prestretch_row(path, lam), E, H, tension_only, JM)
     sigma = P @ np.swapaxes(F, 1, 2) / H  # (t, 3, 3), symmetric, normal component zero
-    f = film_fields(F, film(law, lam, tension_only))
+    law_of_film = film(law, lam, tension_only)
+    if pair is not None:
+        law_of_film = dataclasses.replace(law_of_film, prestretch_tensor=path.tensor(lam))
+    f = film_fields(F, law_of_film)
     s1, s2 = f["cauchy_stress_1_MPa"], f["cauchy_stress_2_MPa"]
     trace = np.trace(sigma, axis1=1, axis2=2)
     minors = 0.5 * (trace**2 - np.einsum("tij,tji->t", sigma, sigma))

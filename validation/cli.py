@@ -32,6 +32,7 @@ import scenes
 from results import Result, atomic_write_text
 from scenes import DemesError
 from scenes.fields import prestretch_list
+from scenes.prestretch import parse_levels
 
 from .common.executor import DEFAULT_WORKERS
 from .common.interrupt import caused_by_interrupt, report_interrupt
@@ -61,11 +62,23 @@ def load_scene(args: argparse.Namespace) -> scenes.Scene:
     return scene.updated(**changes) if changes else scene
 
 
-def _prestretches(args: argparse.Namespace, scene: scenes.Scene) -> list[float]:
-    """The requested pre-stretches, checked, sorted, each once."""
+def _prestretches(args: argparse.Namespace, scene: scenes.Scene) -> tuple[scenes.Scene, list[float]]:
+    """The scene with the pre-stretch pair ``--prestretch`` names (if it names pairs), and the
+    requested path values, checked, sorted, each once (default: the scene's sweep)."""
     if not args.prestretch:
-        return sorted(set(scene.loading.sweep))
-    return sorted(set(prestretch_list("--prestretch", args.prestretch)))
+        return scene, sorted(set(scene.loading.sweep))
+    pair, levels = parse_levels("--prestretch", args.prestretch)
+    return (scene if pair is None else scene.updated(**{"loading.prestretch": list(pair)})), levels
+
+
+def _unequal(scene: scenes.Scene) -> str:
+    """The title's note of an unequal pre-stretch: what its levels lambda mean."""
+    path = scene.prestretch_path
+    if path.isotropic:
+        return ""
+    l1, l2 = path.pair(scene.prestretch)
+    return (f"; pre-stretch {l1:g},{l2:g} along axes at {path.angle_deg:g} deg, applied along the line from 1,1 "
+            "(lambda: the larger of the pair)")
 
 
 def writable_folder(path: str | Path, option: str = "--out") -> Path:
@@ -86,7 +99,9 @@ def writable_folder(path: str | Path, option: str = "--out") -> Path:
 
 def _common(p: argparse.ArgumentParser, out_default: str) -> None:
     p.add_argument("scene", nargs="?", default="demes_paper", help="scene .toml or built-in name (default: demes_paper)")
-    p.add_argument("--prestretch", type=float, nargs="+", help="pre-stretch ratios, e.g. 1.1 1.3 1.5 (default: the scene's sweep)")
+    p.add_argument("--prestretch", nargs="+",
+                   help="pre-stretch ratios, e.g. 1.1 1.3 1.5, or pairs l1,l2 on one line from 1,1, e.g. 1.15,1 1.3,1 "
+                        "(default: the scene's sweep)")
     p.add_argument("--out", default=out_default, help=f"output folder (default: {out_default})")
     p.add_argument("--set", action="append", metavar="KEY=VALUE", help="change a scene field, e.g. --set mesh.divisions=20")
     p.add_argument("--frame-model", choices=("strip", "paper"),
@@ -98,7 +113,7 @@ def _run_solver(args: argparse.Namespace, solver: str) -> int:
     scene = load_scene(args)
     if solver == "fem" and args.refinement is not None:
         scene = scene.updated(**{"fem.refinement": args.refinement})
-    lams = _prestretches(args, scene)
+    scene, lams = _prestretches(args, scene)
     out = writable_folder(args.out)
     if solver == "dr":
         import dr
@@ -112,7 +127,7 @@ def _run_solver(args: argparse.Namespace, solver: str) -> int:
         states = fem_reference.sweep(scene, lams, refinement=refinement)
         label = f"fem_{scene.frame.model}_r{refinement}"
     results = record_states(states, lams, out, label, progress=not args.no_progress)
-    title = f"{scene.name}: {solver.upper()}, frame model '{scene.frame.model}'"
+    title = f"{scene.name}: {solver.upper()}, frame model '{scene.frame.model}'{_unequal(scene)}"
     text = print_table(results, title) + contact_note(results) + state_notes(results, lams)
     atomic_write_text(out / f"{label}.txt", text + "\n")
     print(f"wrote {out / (label + '.csv')}, {out / (label + '.pvd')} and {len(results)} .vtu states")
@@ -136,8 +151,7 @@ def cmd_solve(args: argparse.Namespace) -> int:
     from .common.tables import MESH_ERROR_TABLE
     from .solve import mesh_error, other_starts
 
-    scene = load_scene(args)
-    lams = _prestretches(args, scene)
+    scene, lams = _prestretches(args, load_scene(args))
     out = writable_folder(args.out)
     if args.solver == "fem":
         scene = scene.updated(**{"fem.element": args.element})
@@ -165,7 +179,8 @@ def cmd_solve(args: argparse.Namespace) -> int:
     results = record_states(states(), lams, out, label, progress=not args.no_progress, extra=columns,
                         units=mesh_error.UNITS)
     title = (f"{scene.name}: {what}, frame model '{scene.frame.model}', mesh.divisions "
-             f"{' '.join(map(str, levels))} (states on the finest; theta* and +- by Richardson over them)")
+             f"{' '.join(map(str, levels))} (states on the finest; theta* and +- by Richardson over them)"
+             f"{_unequal(scene)}")
     text = print_table(results, title, MESH_ERROR_TABLE, columns) + contact_note(results) + state_notes(results, lams)
     atomic_write_text(out / f"{label}.txt", text + "\n")
     print(f"wrote {out / (label + '.csv')}, {out / (label + '.pvd')} and {len(results)} .vtu states")
@@ -184,7 +199,8 @@ def cmd_actuate(args: argparse.Namespace) -> int:
 
     scene = load_scene(args)
     if args.prestretch:
-        scene = scene.updated(prestretch=_prestretches(args, scene)[-1])
+        scene, lams = _prestretches(args, scene)
+        scene = scene.updated(prestretch=lams[-1])
     volts = actuate.parse_voltages(args.voltage)
     out = Path(args.out)
     solvers = ("fem", "dr") if args.solver == "both" else (args.solver,)
@@ -214,7 +230,8 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
 
     scene = load_scene(args)
     if args.prestretch:
-        scene = scene.updated(prestretch=_prestretches(args, scene)[-1])
+        scene, lams = _prestretches(args, scene)
+        scene = scene.updated(prestretch=lams[-1])
     cal = calibrate.calibrate(scene, args.refinement or 0)
     text = calibrate.describe(cal)
     print(text)

@@ -5,7 +5,8 @@ as ``--set`` spells them) and the pre-stretch list::
 
     scene = "demes_paper"            # built-in name, or a .toml path (relative to this file)
     solver = "dr"                    # or "fem"; `demes sweep --solver` overrides it
-    prestretch = [1.1, 1.2, 1.3]     # every point is solved at each (default: the scene's sweep)
+    prestretch = [1.1, 1.2, 1.3]     # every point is solved at each (default: the scene's sweep);
+                                     # or pairs on one line from 1: [[1.1, 1.0], [1.3, 1.0]]
 
     [set]                            # fixed changes to the base scene
     frame.model = "strip"
@@ -34,6 +35,7 @@ from typing import Any
 import scenes
 from scenes import tomllib
 from scenes.fields import prestretch_list
+from scenes.prestretch import parse_levels
 
 DEFAULT_MAX_POINTS = 10_000
 """Largest grid (points, pre-stretches included) run without ``--max-points``."""
@@ -129,7 +131,12 @@ def grid_from_dict(data: dict[str, Any], *, name: str = "grid", base_dir: Path =
     if both:
         raise GridError(f"field {both[0]!r} is both in [product] and in [[points]]: sweep it in one of them")
     try:
-        prestretches = tuple(sorted(prestretch_list("prestretch", data.get("prestretch", list(base.loading.sweep)))))
+        if "prestretch" in data and not isinstance(data["prestretch"], list):
+            raise scenes.SceneError("prestretch must be a list of pre-stretches, e.g. [1.1, 1.3] or [[1.1, 1.0], [1.3, 1.0]]")
+        pair, levels = parse_levels("prestretch", data.get("prestretch", list(base.loading.sweep)))
+        prestretches = tuple(prestretch_list("prestretch", levels))
+        if pair is not None:
+            base = base.updated(**{"loading.prestretch": list(pair)})
     except scenes.SceneError as exc:
         raise GridError(str(exc)) from None
     if len({f"{v:.4f}" for v in prestretches}) < len(prestretches):
@@ -228,6 +235,11 @@ def _key(solver: str, scene_data: dict[str, Any]) -> str:
     """Digest of what a family's results depend on: the solver and the scene less its name and
     pre-stretch."""
     scene = {k: v for k, v in scene_data.items() if k not in ("name", "description")}
-    scene["loading"] = {k: v for k, v in scene["loading"].items() if k not in ("prestretch", "sweep")}
+    loading = scene["loading"]
+    p = loading["prestretch"]
+    path = scenes.PrestretchPath.of(tuple(p) if isinstance(p, list) else p, loading["prestretch_angle"])
+    scene["loading"] = {k: v for k, v in loading.items() if k not in ("prestretch", "sweep")}
+    if not path.isotropic:  # the line the pair is applied on, not where along it
+        scene["loading"]["prestretch_rise"] = list(path.rise)
     text = json.dumps({"solver": solver, "scene": scene}, sort_keys=True)
     return hashlib.sha1(text.encode()).hexdigest()[:12]
