@@ -146,6 +146,11 @@ def forces(X: np.ndarray, P, moment: np.ndarray) -> dict[str, np.ndarray]:
     return {}
 
 
+def stencils(P) -> np.ndarray:
+    """The rows of X each spline beam's energy depends on (b, 3): its triplet."""
+    return P.beam_idx
+
+
 def edges(P) -> np.ndarray:
     """Node pairs (k, 2) of the triplets' two edges."""
     return np.concatenate([P.beam_idx[:, :2], P.beam_idx[:, 1:]])

@@ -100,6 +100,16 @@ def cells(P, real: np.ndarray, forces: dict[str, np.ndarray]) -> dict[str, CellB
         "tension_N": forces["cluster_tension"][P.clu_seg_cluster], "cluster_id": P.clu_seg_cluster.astype(float)})}
 
 
+def stencils(P) -> np.ndarray:
+    """The rows of X each clustered cable's energy depends on (c, longest chain; -1: none): its
+    whole chain, since its tension follows the sum of its segments."""
+    counts = np.diff(P.clu_ptr)
+    out = np.full((counts.size, int(counts.max(initial=0))), -1, dtype=np.int64)
+    cable = np.repeat(np.arange(counts.size), counts)
+    out[cable, np.arange(cable.size) - P.clu_ptr[cable]] = P.clu_nodes
+    return out
+
+
 def edges(P) -> np.ndarray:
     """Node pairs (k, 2) of the cables' segments."""
     return P.clu_seg

@@ -83,6 +83,11 @@ def forces(X: np.ndarray, P, moment: np.ndarray) -> dict[str, np.ndarray]:
     return {}
 
 
+def stencils(P) -> np.ndarray:
+    """The rows of X each dielectric triangle's energy depends on (d, 3): its corners."""
+    return P.diel_idx
+
+
 def edges(P) -> np.ndarray:
     """None: the dielectric's triangles are the membrane's (the drift scale of dr.relax takes
     their sides there)."""

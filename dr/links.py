@@ -107,6 +107,11 @@ def cells(P, real: np.ndarray, forces: dict[str, np.ndarray]) -> dict[str, CellB
     return blocks
 
 
+def stencils(P) -> np.ndarray:
+    """The rows of X each link's energy depends on (k, 2): its two nodes."""
+    return P.link_ij
+
+
 def edges(P) -> np.ndarray:
     """Node pairs (k, 2) the links join."""
     return P.link_ij

@@ -135,6 +135,11 @@ def forces(X: np.ndarray, P, moment: np.ndarray) -> dict[str, np.ndarray]:
     return {}
 
 
+def stencils(P) -> np.ndarray:
+    """The rows of X each rod vertex's energy depends on (r, 7; -1: none): its stencil."""
+    return P.rod_idx
+
+
 def edges(P) -> np.ndarray:
     """None: a rod's edges are its frame links (add_rod's EA), which the drift scale of dr.relax takes."""
     return np.zeros((0, 2), np.int64)

@@ -19,7 +19,7 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.linalg import ArpackNoConvergence, LinearOperator, eigsh, splu
 
-from . import dielectric
+from . import dielectric, hessian
 from .kernels import Packed, energy, gradient
 from .masses import masses_at
 
@@ -49,6 +49,18 @@ HILLTOP_ITERATIONS = 8
 MODE_ITERATIONS = 2000
 """Largest number of Lanczos restarts for the lowest mode."""
 
+SHIFT_INVERT_MODES = 3
+"""Eigenpairs the second shift-invert search finds (the lowest of them is kept): more than one,
+since the soft end of a DEMES's spectrum comes in near pairs."""
+
+BELOW = 1e-3
+"""The lowest eigenvalue found is checked by the inertia of K - w' M at w' this fraction of
+its size (at least :data:`NEUTRAL`) below it."""
+
+LOWEST_SHIFT = -10.0
+"""The lowest shift the inertia test tries: every eigenvalue of K v = w M v is above about -1
+where the masses bound the stiffness (f = 2)."""
+
 
 class Mode(NamedTuple):
     """The lowest eigenpair of K v = w M v at a state."""
@@ -75,6 +87,8 @@ class _Operator(NamedTuple):
     to_displacement: Callable[[np.ndarray], np.ndarray]  # y (m,) -> u = M^-T/2 y (3n,), zero where held
     stiffness: Callable[[np.ndarray], np.ndarray]  # u (3n,) -> K u (3n,), N/mm
     applications: list[int]  # [applications of C so far]
+    mass: sp.csr_matrix  # M (3n, 3n), the masses C is scaled by
+    assembled: Callable[[], tuple[sp.csr_matrix, int]]  # () -> K (3n, 3n) N/mm, gradient pairs it took
 
 
 def _operator(model, x: np.ndarray, masses: str) -> _Operator:
@@ -99,7 +113,7 @@ def _operator(model, x: np.ndarray, masses: str) -> _Operator:
             out.append(G[:n].reshape(-1).copy())
         return (out[0] - out[1]) / (2.0 * step)
 
-    half, half_t = _mass_halves(built, n)
+    half, half_t, mass = _mass_halves(built, n)
     applications = [0]
 
     def to_displacement(y: np.ndarray) -> np.ndarray:
@@ -111,8 +125,13 @@ def _operator(model, x: np.ndarray, masses: str) -> _Operator:
         applications[0] += 1
         return half(stiffness(to_displacement(y)))[free]
 
+    def assembled() -> tuple[sp.csr_matrix, int]:
+        held = model.fixed.reshape(n, 3)
+        return hessian.stiffness_matrix(P0, x, ~held, hessian.pattern(P0, (~held).any(axis=1)), h)
+
     m = free.size
-    return _Operator(LinearOperator((m, m), matvec=C, dtype=float), free, to_displacement, stiffness, applications)
+    return _Operator(LinearOperator((m, m), matvec=C, dtype=float), free, to_displacement, stiffness, applications,
+                     mass, assembled)
 
 
 def _shape(u: np.ndarray, n: int) -> np.ndarray:
@@ -124,26 +143,93 @@ def lowest_mode(model, x: np.ndarray, *, masses: str = "frame", guess: np.ndarra
     ``masses`` ('frame', 'tensor' or 'scalar') that :func:`dr.relax` would use there (f = 2).
     ``guess`` (n, 3): a shape to start the search from (e.g. the scene's lift).
 
-    Lanczos (ARPACK) on the symmetric C = M^-1/2 K M^-T/2, whose spectrum lies in about
-    [-1, 1] because the masses bound the stiffness."""
+    K is assembled (:mod:`dr.hessian`) and the lowest eigenvalue bracketed by the inertia of
+    K - s M (:func:`_below`); shift-invert Lanczos at the bracket's lower end then finds it in
+    a few steps, where Lanczos on C = M^-1/2 K M^-T/2 alone needed hundreds to thousands of
+    products (the soft end of the spectrum is clustered near 0). Where the inertia cannot be
+    read (a zero pivot), that Lanczos on C, whose spectrum lies in about [-1, 1] because the
+    masses bound the stiffness, is the search."""
     n = model.n
     op = _operator(model, x, masses)
     m = op.free.size
     start = np.ones(m) if guess is None else np.asarray(guess, dtype=float).reshape(-1)[op.free] + 1e-3
-    try:
-        _, v = eigsh(op.C, k=1, which="SA", tol=MODE_TOLERANCE, v0=start, ncv=min(m, MODE_KRYLOV), maxiter=MODE_ITERATIONS)
-        found = True
-    except ArpackNoConvergence as stop:
-        if not len(stop.eigenvalues):
-            return Mode(float("nan"), np.zeros((n, 3)), op.applications[0], False, float("nan"), float("nan"))
-        v, found = stop.eigenvectors, False
-    u = op.to_displacement(v[:, 0] / np.linalg.norm(v[:, 0]))  # u^T M u = 1
+    found, u = _by_inertia(op, start)
+    if u is not None and u @ op.stiffness(u) < 0.0:
+        # a saddle's mode is the one the step off it follows: taken from C, whose K is the
+        # matrix-free one the step's slopes use (on a hexagon's weak saddle, w = -1.2e-7, the
+        # assembled K's mode led five steps back onto the saddle, C's off it in one)
+        u = None
+    if u is None:
+        try:
+            _, v = eigsh(op.C, k=1, which="SA", tol=MODE_TOLERANCE, v0=start, ncv=min(m, MODE_KRYLOV),
+                         maxiter=MODE_ITERATIONS)
+            found = True
+        except ArpackNoConvergence as stop:
+            if not len(stop.eigenvalues):
+                return Mode(float("nan"), np.zeros((n, 3)), op.applications[0], False, float("nan"), float("nan"))
+            v, found = stop.eigenvectors, False
+        u = op.to_displacement(v[:, 0] / np.linalg.norm(v[:, 0]))  # u^T M u = 1
     Ku = op.stiffness(u)
     area = np.repeat(film_areas(model), 3)
     # the Rayleigh quotients of the mode itself: where K is not smooth (a cable at exactly its
     # rest length, tension-only) the Ritz value of a symmetric solver need not be one
-    return Mode(float(u @ Ku), _shape(u, n), op.applications[0], found, float(u @ Ku / (u @ u)),
+    return Mode(float(u @ Ku), _shape(u, n), op.applications[0] + 1, found, float(u @ Ku / (u @ u)),
                 float(u @ Ku / (u @ (area * u))) if area.any() else float("nan"))
+
+
+def _below(K: sp.csr_matrix, M: sp.csr_matrix, shift: float):
+    """The factor of K - ``shift`` M if it is positive definite (no eigenvalue of K v = w M v
+    at or below ``shift``), else None; also None where a pivot is zero. Symmetric elimination
+    without pivoting gives K - s M = L D L^T, and D has as many negative entries as there are
+    eigenvalues below s (Sylvester's law of inertia)."""
+    try:
+        lu = splu((K - shift * M).tocsc(), permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0,
+                  options={"SymmetricMode": True})
+    except RuntimeError:  # exactly singular: an eigenvalue at the shift
+        return None
+    if not np.array_equal(lu.perm_r, lu.perm_c) or not np.all(lu.U.diagonal() > 0.0):
+        return None
+    return lu
+
+
+def _by_inertia(op: _Operator, start: np.ndarray) -> tuple[bool, np.ndarray | None]:
+    """The lowest mode on the assembled K: (converged, u (3n,) with u^T M u = 1), or (False,
+    None) where it cannot be had this way. The shift s starts at minus :data:`NEUTRAL` (a
+    stable state's, where the lowest mode is then the one nearest it) and goes down by decades
+    until K - s M is definite (not below :data:`LOWEST_SHIFT`); shift-invert Lanczos at s then
+    finds the eigenvalues nearest s, and the lowest found is the lowest only if K - w' M is
+    definite just below it (w' = :data:`BELOW` under it). The search starts from ``start``
+    alone, so that of a near pair of modes (a regular polygon's come in pairs) it finds the
+    one nearest the start, as Lanczos on C does; where that misses the lowest (a start with no
+    part along it: the lift is mirror-symmetric, a twist is not), it starts again from
+    ``start`` plus a fixed random vector, so that the start has a part along every mode, and
+    keeps the lowest of :data:`SHIFT_INVERT_MODES` found."""
+    K, pairs = op.assembled()
+    op.applications[0] += pairs
+    f = op.free
+    K, M = K[f][:, f].tocsc(), op.mass[f][:, f].tocsc()
+    shift = -NEUTRAL
+    while (lu := _below(K, M, shift)) is None:
+        shift *= 10.0
+        if shift < LOWEST_SHIFT:
+            return False, None
+    inverse = LinearOperator(K.shape, matvec=lu.solve, dtype=float)
+    noise = np.random.default_rng(0).standard_normal(K.shape[0])
+    for v0, modes in ((start, 1), (start / np.linalg.norm(start) + noise / np.linalg.norm(noise), SHIFT_INVERT_MODES)):
+        try:
+            w, v = eigsh(K, k=min(modes, K.shape[0] - 1), M=M, sigma=shift, which="LM", OPinv=inverse,
+                         tol=MODE_TOLERANCE, v0=v0, maxiter=MODE_ITERATIONS)
+            found = True
+        except ArpackNoConvergence as stop:
+            if not len(stop.eigenvalues):
+                continue
+            w, v, found = stop.eigenvalues, stop.eigenvectors, False
+        lowest = int(np.argmin(w))
+        if _below(K, M, w[lowest] - BELOW * max(abs(w[lowest]), NEUTRAL)) is not None:
+            u = np.zeros(op.mass.shape[0])
+            u[f] = v[:, lowest] / np.sqrt(v[:, lowest] @ (M @ v[:, lowest]))
+            return found, u
+    return False, None
 
 
 def film_areas(model) -> np.ndarray:
@@ -265,14 +351,15 @@ def leave_saddle(model, x: np.ndarray, mode: Mode, *, sign: float, size: float) 
 def _mass_halves(built, n: int):
     """u -> M^-1/2 u and u -> M^-T/2 u on all 3n DOFs, M = B B^T: the frame mass's factor L
     (fresh from :func:`dr.masses.masses_at`, so no rotation since the refresh) and each other
-    node's 3x3 Cholesky factor (its held axes decoupled, as the time loop builds them)."""
+    node's 3x3 Cholesky factor (its held axes decoupled, as the time loop builds them); and M
+    itself (3n, 3n)."""
     st, fm = built.state, built.frame
     dof = (3 * fm.nodes[:, None] + np.arange(3)).ravel()
     N = dof.size
     rows = np.repeat(np.arange(N), np.diff(fm.start[: N + 1]))
     cols = fm.first[rows] + np.arange(rows.size) - fm.start[rows]
-    factor = (splu(sp.csc_matrix((fm.env[: rows.size], (rows, cols)), shape=(N, N)), permc_spec="NATURAL",
-                   diag_pivot_thresh=0.0, options={"SymmetricMode": False}) if N else None)
+    L = sp.csc_matrix((fm.env[: rows.size], (rows, cols)), shape=(N, N))
+    factor = splu(L, permc_spec="NATURAL", diag_pivot_thresh=0.0, options={"SymmetricMode": False}) if N else None
     nodes = np.flatnonzero(fm.pos < 0)
     a, b, c, d, e, f = st.M[nodes].T
     blocks = np.stack([np.stack([a, d, e], -1), np.stack([d, b, f], -1), np.stack([e, f, c], -1)], 1)
@@ -280,6 +367,12 @@ def _mass_halves(built, n: int):
         blocks += FLOOR * np.median(np.stack([a, b, c])) * np.eye(3)
     # inverted once: a batched solve per application cost 0.1 ms, a fifth of a Lanczos check
     B_inv = np.linalg.inv(np.linalg.cholesky(blocks))
+    node_dof = 3 * nodes[:, None] + np.arange(3)
+    mass = sp.coo_matrix((blocks.ravel(), (np.repeat(node_dof, 3, axis=1).ravel(), np.tile(node_dof, 3).ravel())),
+                         shape=(3 * n, 3 * n)).tocsr()
+    if N:
+        select = sp.csr_matrix((np.ones(N), (dof, np.arange(N))), shape=(3 * n, N))
+        mass = mass + select @ (L @ L.T) @ select.T
 
     def half(u: np.ndarray) -> np.ndarray:
         z = np.zeros_like(u)
@@ -295,4 +388,4 @@ def _mass_halves(built, n: int):
         z.reshape(n, 3)[nodes] = np.einsum("kji,kj->ki", B_inv, u.reshape(n, 3)[nodes])
         return z
 
-    return half, half_t
+    return half, half_t, mass.tocsr()

@@ -72,6 +72,11 @@ def forces(X: np.ndarray, P, moment: np.ndarray) -> dict[str, np.ndarray]:
             "strip_strong_curvature": meas[:, 1] - P.strip_par[:, KN0]}
 
 
+def stencils(P) -> np.ndarray:
+    """The rows of X each strip node's energy depends on (k, 5; -1: none): its frame geometry."""
+    return P.strip_idx
+
+
 def edges(P) -> np.ndarray:
     """None: the drift scale of dr.relax counts a strip's edges as its frame links (add_beam's EA)."""
     return np.zeros((0, 2), np.int64)

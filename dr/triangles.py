@@ -135,6 +135,11 @@ def forces(X: np.ndarray, P, moment: np.ndarray) -> dict[str, np.ndarray]:
     return {}
 
 
+def stencils(P) -> np.ndarray:
+    """The rows of X each triangle's energy depends on (t, 3): its corners."""
+    return P.tri_idx
+
+
 def edges(P) -> np.ndarray:
     """Node pairs (k, 2) of the triangles' three sides."""
     return np.concatenate([P.tri_idx[:, :2], P.tri_idx[:, 1:], P.tri_idx[:, ::2]])

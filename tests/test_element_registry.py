@@ -8,7 +8,7 @@ import dr
 from dr.elements import ELEMENTS
 from dr.kernels import Packed, Virtual
 
-PARTS = ("Fields", "pack", "gradient", "strain_energy", "stiffness", "forces", "edges")
+PARTS = ("Fields", "pack", "gradient", "strain_energy", "stiffness", "forces", "edges", "stencils")
 
 
 @pytest.mark.parametrize("element", ELEMENTS, ids=lambda e: e.__name__)

@@ -39,6 +39,20 @@ def test_the_straight_column_loses_stability_at_the_euler_load(fraction):
     assert np.abs(mode.shape[:, 0]).max() < 0.05  # it bends; it does not stretch
 
 
+def test_the_lowest_mode_is_found_from_a_start_with_no_part_along_it():
+    """The column just past Euler's load: its lowest mode (the half sine) is mirror-symmetric
+    about the middle; from the antisymmetric full sine as the start, it is still the one
+    found, with the eigenvalue the matrix-free Lanczos search finds."""
+    model, x = compressed_column(1.01 * EULER)
+    full_sine = np.zeros_like(x)
+    full_sine[:, 1] = np.sin(2 * np.pi * x[:, 0] / x[-1, 0])
+    mode = stability.lowest_mode(model, x, guess=full_sine)
+    assert mode.found and mode.eigenvalue < -stability.NEUTRAL
+    lateral = np.linalg.norm(mode.shape[:, 1:], axis=1)
+    sine = np.sin(np.pi * x[:, 0] / x[-1, 0])
+    assert abs(lateral @ sine) / np.linalg.norm(lateral) / np.linalg.norm(sine) > 0.999
+
+
 def test_the_flat_demes_is_a_saddle_that_dr_leaves_apex_up():
     """The flat state at 110 % (in-plane equilibrium: the frame drawn in, out-of-plane
     displacements held at zero, then released) has a negative-stiffness mode, as the FEM
