@@ -266,6 +266,10 @@ class Result:
         lower = self.info.get("lower_state")
         if lower:
             out.append(lower_state_words(lower))
+        mirror = self.info.get("mirror_state")
+        if mirror:
+            out.append(f"its mirror image through the flat plane is a stable state of the same energy on the lift's "
+                       f"side: {mirror['bending_angle']:.2f} deg ({mirror['branch']})")
         return out
 
     def note_lower_state(self, other: "Result", start: str) -> None:
@@ -275,6 +279,14 @@ class Result:
         self.info["lower_state"] = {"start": start, "bending_angle": other.bending_angle, "branch": other.branch,
                                     "energy_total": other.energy["total"]}
         self.message += "; " + lower_state_words(self.info["lower_state"])
+
+    def note_mirror_state(self, other: "Result") -> None:
+        """Record ``other``, this state's mirror image through the flat plane, a stable state of
+        the same energy on the scene's lift's side, in ``info['mirror_state']`` (its bending
+        angle, branch, total energy) and as a clause of the message."""
+        self.info["mirror_state"] = {"bending_angle": other.bending_angle, "branch": other.branch,
+                                     "energy_total": other.energy["total"]}
+        self.message += "; " + self.remarks[-1]
 
     @property
     def mid_height_width(self) -> float:

@@ -5,6 +5,8 @@ mirror start, whose energy is the path's."""
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
@@ -55,6 +57,25 @@ def test_a_model_with_the_flip_symmetry_has_no_lower_mirror():
     assert mirror.bending_angle == pytest.approx(-state.bending_angle, abs=1e-3)
     assert mirror.energy["total"] == pytest.approx(state.energy["total"], rel=1e-8)
     assert np.allclose(mirror.x, state.x * [1.0, 1.0, -1.0], atol=1e-4 * scene.outline.side_length)
+
+
+def test_a_state_against_the_lift_names_its_mirror_image_of_the_same_energy():
+    """Where the path's state is against the scene's lift (here: DR's up curl read under a
+    scene whose lift is down), its mirror image through the flat plane, a stable state of the
+    same energy on the lift's side, is named on it; a state on the lift's side solves nothing."""
+    scene = scenes.paper_demes(1.2, "strip", **{"mesh.divisions": 8, "dr.membrane_net": "triangles"})
+    state = list(dr.sweep(scene, [1.2]))[-1]
+    assert state.branch == "up" and other_starts.mirror_state(state) is None
+    assert "mirror_state" not in state.info
+    against = replace(state, scene=scene.updated(**{"perturbation.amplitude": -0.5}), info=dict(state.info))
+    assert other_starts.against_the_lift(against)
+    mirror = other_starts.mirror_state(against)
+    assert mirror is not None and mirror.branch == "down" and mirror.info["stable"]
+    assert mirror.bending_angle == pytest.approx(-state.bending_angle, abs=1e-3)
+    noted = against.info["mirror_state"]
+    assert noted["branch"] == "down" and noted["energy_total"] == pytest.approx(state.energy["total"], rel=1e-6)
+    words = "its mirror image through the flat plane is a stable state of the same energy on the lift's side"
+    assert words in against.message and any(words in r for r in against.remarks)
 
 
 def test_demes_solve_other_starts_names_the_lower_state_under_the_table(tmp_path, capsys):

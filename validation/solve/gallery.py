@@ -37,9 +37,9 @@ ENERGY_AGREES = 1e-4
 COLUMNS = (
     ("scene", "-"), ("prestretch", "-"),
     ("dr_status", "-"), ("dr_angle", "deg"), ("dr_branch", "-"), ("dr_energy", "N mm"), ("dr_stable", "-"),
-    ("dr_jumps", "-"), ("dr_time", "s"), ("dr_reached", "-"),
+    ("dr_jumps", "-"), ("dr_time", "s"), ("dr_reached", "-"), ("dr_mirror", "-"),
     ("fem_status", "-"), ("fem_angle", "deg"), ("fem_branch", "-"), ("fem_energy", "N mm"), ("fem_stable", "-"),
-    ("fem_jumps", "-"), ("fem_time", "s"), ("fem_reached", "-"),
+    ("fem_jumps", "-"), ("fem_time", "s"), ("fem_reached", "-"), ("fem_mirror", "-"),
     ("angle_difference", "deg"), ("energy_difference", "-"), ("agree", "-"),
 )
 
@@ -56,7 +56,15 @@ def _solver_columns(prefix: str, res: Result | None) -> dict[str, Any]:
     row = res.summary()
     return {f"{prefix}_status": res.status, f"{prefix}_angle": row["bending_angle"], f"{prefix}_branch": row["branch"],
             f"{prefix}_energy": res.energy["total"], f"{prefix}_stable": row["stable"],
-            f"{prefix}_jumps": row["jumps"], f"{prefix}_time": res.wall_time, f"{prefix}_reached": res.prestretch}
+            f"{prefix}_jumps": row["jumps"], f"{prefix}_time": res.wall_time, f"{prefix}_reached": res.prestretch,
+            f"{prefix}_mirror": _mirror_words(res)}
+
+
+def _mirror_words(res: Result) -> str:
+    """'up 52.96' for a state against the lift whose mirror image through the flat plane is a
+    stable state of the same energy (:func:`validation.solve.other_starts.mirror_state`)."""
+    mirror = res.info.get("mirror_state")
+    return f"{mirror['branch']} {mirror['bending_angle']:.2f}" if mirror else ""
 
 
 def compare(name: str, lam: float, dr_state: Result | None, fem_state: Result | None) -> dict[str, Any]:
@@ -80,6 +88,8 @@ def run_scene(name: str, out_dir: str, prestretches: Sequence[float], divisions:
     import dr
     import fem_reference
 
+    from . import other_starts
+
     scene = gallery_scene(name, divisions)
     out = Path(out_dir)
     states: dict[str, dict[float, Result]] = {}
@@ -89,6 +99,7 @@ def run_scene(name: str, out_dir: str, prestretches: Sequence[float], divisions:
             res.write_vtk(out / f"{scene.name}_{solver}_{level_label(res.prestretch)}.vtu")
             # a path that stopped short (contact, fold) is shown at the level it was headed for
             headed = min((lam for lam in prestretches if lam >= res.prestretch - 1e-12), default=res.prestretch)
+            other_starts.mirror_state(res)
             states[solver][headed] = res
     _picture(scene.name, states, out)
     return [compare(scene.name, lam, states["dr"].get(lam), states["fem"].get(lam)) for lam in prestretches]
@@ -146,16 +157,20 @@ def table(rows: Sequence[dict[str, Any]], errors: Sequence[str] = (), seconds: f
 
     lines = ["# Gallery: DR triangles against the FEM P1 on one discrete problem", "",
              f"States agree within {ANGLE_AGREES:g} deg and {ENERGY_AGREES:g} relative energy. "
-             "Stable: lowest eigenvalue of the stiffness not negative (DR against its masses, the FEM its tangent).",
+             "Stable: lowest eigenvalue of the stiffness not negative (DR against its masses, the FEM its tangent). "
+             "Mirror: for a state against the scene's lift, its mirror image through the flat plane where that is a "
+             "stable state of the same energy (branch, deg).",
              "",
-             "| scene | lambda | DR deg | FEM deg | branch DR/FEM | dE/E | agree | stable DR/FEM | jumps DR / FEM | DR s | FEM s | status DR/FEM |",
-             "|---|---|---|---|---|---|---|---|---|---|---|---|"]
+             "| scene | lambda | DR deg | FEM deg | branch DR/FEM | dE/E | agree | stable DR/FEM | mirror DR / FEM "
+             "| jumps DR / FEM | DR s | FEM s | status DR/FEM |",
+             "|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for r in rows:
         de = r.get("energy_difference", np.nan)
         lines.append(
             f"| {r['scene']} | {r['prestretch']:g} | {angle(r.get('dr_angle'))} | {angle(r.get('fem_angle'))} | "
             f"{r.get('dr_branch', '-')}/{r.get('fem_branch', '-')} | {de:.1e} | {'yes' if r['agree'] else 'no'} | "
-            f"{r.get('dr_stable', '-')}/{r.get('fem_stable', '-')} | {r.get('dr_jumps') or '-'} / {r.get('fem_jumps') or '-'} | "
+            f"{r.get('dr_stable', '-')}/{r.get('fem_stable', '-')} | {r.get('dr_mirror') or '-'} / {r.get('fem_mirror') or '-'} | "
+            f"{r.get('dr_jumps') or '-'} / {r.get('fem_jumps') or '-'} | "
             f"{r.get('dr_time', np.nan):.1f} | {r.get('fem_time', np.nan):.1f} | {_status(r, 'dr')}/{_status(r, 'fem')} |")
     agreed = sum(bool(r["agree"]) for r in rows)
     lines += ["", f"{agreed} of {len(rows)} states agree" + (f"; {seconds:.0f} s in all" if np.isfinite(seconds) else "") + "."]

@@ -81,6 +81,29 @@ def distinct(found: Result, state: Result) -> bool:
     return found.shape_error(state)[0] > SECOND_STATE
 
 
+def against_the_lift(state: Result) -> bool:
+    """Whether ``state``'s apex went to the other side of the flat plane than its scene's lift."""
+    lift = state.scene.perturbation.amplitude
+    return bool(lift) and state.branch in ("up", "down") and state.branch != ("up" if lift > 0 else "down")
+
+
+def mirror_state(state: Result) -> Result | None:
+    """For a converged ``state`` against its scene's lift (:func:`against_the_lift`): the stable
+    state its solver reaches from its mirror image in the flat plane, if that is on the lift's
+    side with the same energy (within :data:`LOWER`), noted on ``state`` (its message,
+    ``info['mirror_state']``); None otherwise. Where the model has the flip symmetry the path's
+    side was set where it left a symmetric state, not by the lift (docs/path.md): this names
+    the state the lift asked for, which the path did not reach."""
+    if not (state.converged and against_the_lift(state)):
+        return None
+    found = from_mirror(state)
+    same = abs(found.energy.get("total", np.inf) - state.energy["total"]) <= LOWER * abs(state.energy["total"])
+    if not (found.converged and found.info.get("stable") and same and not against_the_lift(found)):
+        return None
+    state.note_mirror_state(found)
+    return found
+
+
 def search(state: Result) -> Result | None:
     """Relax the other starts of a converged ``state`` (:func:`from_mirror`, :func:`at_once`) and return the stable state of
     lowest energy found if it is lower than ``state``'s (by :data:`LOWER`) and
@@ -98,6 +121,7 @@ def search(state: Result) -> Result | None:
             if best is None or found.energy["total"] < best[1].energy["total"]:
                 best = (words, found)
     if best is None:
+        mirror_state(state)
         return None
     state.note_lower_state(best[1], best[0])
     return best[1]
