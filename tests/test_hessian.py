@@ -3,12 +3,12 @@ the lowest mode it gives (dr.stability) against the matrix-free Lanczos search."
 
 import numpy as np
 import pytest
+from test_dr_elements import strip_model
 
 import dr
 import scenes
 from dr import hessian, stability
 from dr.kernels import gradient
-from test_dr_elements import strip_model
 
 
 def column_by_column(model, x: np.ndarray) -> np.ndarray:

@@ -13,8 +13,8 @@ import pytest
 import dr
 import fem_reference
 import scenes
-from validation.solve import other_starts
 from validation.cli import main
+from validation.solve import other_starts
 
 ONE_FACE = {"mesh.divisions": 8, "frame.film_offset": True, "fem.element": "P1"}
 
