@@ -29,7 +29,7 @@ from .contact import closest_pair, pairs_within
 from .kernels import gradient, stiffness
 
 # why a chunk of steps ended
-STEPS_DONE, CONTACT, CONVERGED, NONFINITE, RUNAWAY = range(5)
+STEPS_DONE, CONTACT, CONVERGED, NONFINITE, RUNAWAY, LEASHED = range(6)
 
 FORCE_JUMP = 5.0
 """A step after which the largest element force is this many times the last step's (and above
@@ -81,6 +81,7 @@ class Settings(NamedTuple):
     drift: float  # mm the nodes may move before the tensor masses are rebuilt (0: every step)
     frame_drift: float  # mm the nodes may move before the frame mass is refreshed
     frame_turn: float  # rad a node's edge frame may turn before the frame mass is refreshed
+    leash: float  # mm a node may get from its start before the run stops (0: no limit)
 
 
 def new_state(X: np.ndarray, free: np.ndarray, loads: np.ndarray, tensor: bool,
@@ -230,6 +231,19 @@ def _rebuild(st, P, fm, half_safety, bounds):
 
 
 @njit(cache=True, error_model="numpy")
+def _farthest2(X, X0, n):
+    """The largest squared distance of a real node from its place in X0, mm^2."""
+    far = 0.0
+    for i in range(n):
+        d2 = 0.0
+        for c in range(3):
+            d = X[i, c] - X0[i, c]
+            d2 += d * d
+        far = _nanmax(far, d2)
+    return far
+
+
+@njit(cache=True, error_model="numpy")
 def run(st, P, cfg, fm):
     """Advance up to ``cfg.max_steps`` leapfrog steps with the damping ``cfg.damping``.
 
@@ -240,7 +254,9 @@ def run(st, P, cfg, fm):
     the largest element force (at least ``force_floor``), (b) two non-neighbouring
     ``segments`` (node pairs of a chain, ``closed`` or not) come closer than
     ``contact_distance`` mm, (c) a value is not finite, or (d) a node moves more than
-    ``runaway`` mm in one step. Contact is tested with a Verlet list: pairs within reach
+    ``runaway`` mm in one step, or (e) a node gets farther than ``leash`` mm (if > 0) from its
+    place at the run's start (st.X0), tested whenever the nodes may have moved a tenth of it.
+    Contact is tested with a Verlet list: pairs within reach
     d + 2 skin are listed again whenever the ``watched`` nodes may have moved a skin, and the
     listed pairs are tested whenever they may have moved d/4, so nothing passes through
     unseen. The stiffness bounds behind the masses are refreshed every ``mass_every`` steps,
@@ -277,6 +293,8 @@ def run(st, P, cfg, fm):
     frame_drifted = 0.0
     fmax_last = math.inf  # no step to compare the first with
     taken_back = False
+    leash = cfg.leash
+    moved_leash = 0.0
     while steps < cfg.max_steps:
         if taken_back:
             how = dmp.MOVED_BACK  # rebuilt below where the step started, bounds included
@@ -340,6 +358,12 @@ def run(st, P, cfg, fm):
             return NONFINITE, steps, restarts, fmax, rmax
         if step_max > cfg.runaway:
             return RUNAWAY, steps, restarts, fmax, rmax
+        if leash > 0.0:
+            moved_leash += step_max
+            if moved_leash > 0.1 * leash:
+                moved_leash = 0.0
+                if _farthest2(X, st.X0, n) > leash * leash:
+                    return LEASHED, steps, restarts, fmax, rmax
         scale = max(fmax, cfg.force_floor)
         if rmax <= cfg.tol * scale and momentum(st, fm, n) <= cfg.tol * scale:
             return CONVERGED, steps, restarts, fmax, rmax

@@ -77,6 +77,7 @@ def relax(
     progress: bool = False,
     chunk: int = 20_000,
     damping: str = "kinetic",
+    leash: float = 0.0,
 ) -> Result:
     """Relax ``model`` to equilibrium by dynamic relaxation.
 
@@ -121,6 +122,10 @@ def relax(
     damping
         'kinetic' (Barnes), 'viscous' (Underwood's adaptive coefficient) or 'fire' (Bitzek
         et al.): :mod:`dr.damping`.
+    leash
+        mm (0: none): the run stops with status 'too_far' once a node is farther than this from
+        its start. The path gives up a step that is jumping this way before its relaxation
+        reaches the far state (:mod:`dr.demes`).
 
     Returns
     -------
@@ -129,8 +134,8 @@ def relax(
         'max_iterations', 'diverged' (energy rising or a node jumping: an unstable time step;
         checked before any contact or fold is reported), 'not_finite' (a NaN/inf position,
         force or energy; the last finite state is returned and the message names the node and
-        the degenerate element), 'self_contact' or 'membrane_fold', and a message with the
-        residual and iteration count.
+        the degenerate element), 'self_contact', 'membrane_fold' or 'too_far' (``leash``), and
+        a message with the residual and iteration count.
 
     Raises
     ------
@@ -147,7 +152,7 @@ def relax(
     built = _build_masses(model, P, X, kind=masses, safety=mass_safety, contact=contact, positions=positions)
     P, st, fm = built.P, built.state, built.frame
     cfg = _loop_settings(X, P, model.loads, tol=tol, mass_safety=mass_safety, chunk=chunk, damping=damping,
-                         contact=contact, force_scale=force_scale)
+                         contact=contact, force_scale=force_scale)._replace(leash=float(leash))
     unresisted(itg.start(st, P, fm, cfg.half_safety), "after the first step")
     # measured after the first step, as every energy the divergence check compares with it
     stops = _Stops(contact=contact, final_checks=final_checks, e_start=potential_energy(X, P, model.loads),
@@ -250,7 +255,7 @@ def _loop_settings(X: np.ndarray, P: Packed, loads: np.ndarray, *, tol: float, m
         damping=SCHEMES[damping], half_safety=0.5 * mass_safety, max_steps=int(chunk), closed=bool(closed),
         contact_distance=float(distance), tol=float(tol), force_floor=_force_floor(X, P, loads, tol, force_scale),
         runaway=max(float(np.linalg.norm(np.ptp(X[: P.n], axis=0))), 1e-9), mass_every=MASS_EVERY,
-        drift=DRIFT_TURN * edge, frame_drift=FRAME_DRIFT * edge, frame_turn=FRAME_TURN,
+        drift=DRIFT_TURN * edge, frame_drift=FRAME_DRIFT * edge, frame_turn=FRAME_TURN, leash=0.0,
     )
 
 
@@ -300,6 +305,9 @@ def _run_chunks(st: itg.State, P: Packed, fm: FrameMass, cfg: itg.Settings, stop
                                         f"{last_good} is returned")
             if code == itg.CONTACT:
                 return stop("self_contact", f"stopped at iteration {it}: {stops.contact(X[:n])}")
+            if code == itg.LEASHED:
+                return stop("too_far", f"stopped at iteration {it}: a node got farther than leash = "
+                                       f"{cfg.leash:.3g} mm from its start")
             check, hit = _first_flag(stops.final_checks, X[:n])
             folded_chunks = folded_chunks + 1 if hit else 0
             if code == itg.CONVERGED and hit:

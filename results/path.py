@@ -101,7 +101,13 @@ def jumped(move: float, step: float, rate: float | None, side_length: float) -> 
     first step or the first after a jump, which is never called one)."""
     if rate is None:
         return False
-    return move > max(JUMP_RATIO * rate * step, JUMP_FLOOR * side_length)
+    return move > jump_distance(step, rate, side_length)
+
+
+def jump_distance(step: float, rate: float, side_length: float) -> float:
+    """mm: the largest nodal move of a step of ``step`` in pre-stretch on a branch moving at
+    ``rate`` mm per unit pre-stretch beyond which the step is a jump (:func:`jumped`)."""
+    return max(JUMP_RATIO * rate * step, JUMP_FLOOR * side_length)
 
 
 TURN = 0.5

@@ -107,3 +107,24 @@ def test_the_symmetries_dr_restores_are_the_models_own(rectangle):
     restored = restore(twist, [product])
     assert np.abs(product.apply(restored) - restored).max() < 1e-12
     assert np.abs(restored[:, 2] - 1e-3 * twist[:, 0] * twist[:, 1]).max() < 1e-12
+
+
+def test_a_relaxation_on_a_leash_stops_once_a_node_is_that_far_from_its_start():
+    """A cantilever bent by a tip load: on a leash of half the tip's deflection the run stops,
+    'too_far', with the tip just past the leash and short of its equilibrium; without one it
+    reaches the equilibrium."""
+    n_seg, length = 20, 80.0
+    x = np.zeros((n_seg + 1, 3))
+    x[:, 0] = np.linspace(0.0, length, n_seg + 1)
+    m = dr.Model(x)
+    m.clamp(0, (1.0, 0.0, 0.0))
+    m.add_beam(np.arange(n_seg + 1), EI=0.78, EA=1300.0)
+    m.add_load(n_seg, (0.0, 0.0, -3.0 * 0.78 / length**2))
+    free = dr.relax(m, tol=1e-8)
+    assert free.converged
+    deflection = float(np.linalg.norm(free.x[-1] - x[-1]))
+    leashed = dr.relax(m, tol=1e-8, leash=0.5 * deflection)
+    assert leashed.status == "too_far" and not leashed.converged
+    farthest = float(np.linalg.norm(leashed.x - x, axis=1).max())
+    assert 0.5 * deflection < farthest < 0.75 * deflection
+    assert leashed.iterations < free.iterations
