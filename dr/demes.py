@@ -350,7 +350,9 @@ def _off_saddles(scene: Scene, dm: DemesModel, res: Result, runs: list[Result], 
         if steps:
             mode = _lowest_mode(dm, res, relax_with)
         checked = {**res.info, "saddle_steps": steps, "lowest_eigenvalue": mode.eigenvalue,
-                   "lowest_eigenvalue_N_per_mm3": mode.per_area, "stable": not stability.is_saddle(mode, dm.neutral)}
+                   "lowest_eigenvalue_N_per_mm3": mode.per_area, "stable": not stability.is_saddle(mode, dm.neutral),
+                   "newton_step_mm": (float(np.linalg.norm(mode.newton_step, axis=1).max())
+                                      if mode.newton_step is not None else float("nan"))}
         if not np.isfinite(mode.eigenvalue):
             runs[-1] = replace(res, info={**checked, "stable": None},
                                message=f"{res.message}; its stability is unknown (the lowest mode was not found)")

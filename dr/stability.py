@@ -71,6 +71,7 @@ class Mode(NamedTuple):
     found: bool  # converged to MODE_TOLERANCE
     stiffness: float  # its Rayleigh quotient v^T K v / v^T v, N/mm
     per_area: float  # v^T K v / v^T A v, A the nodal film areas (flat), N/mm^3: the FEM's measure
+    newton_step: np.ndarray | None = None  # (n, 3) mm, K^-1 r: where K is definite, the step to the equilibrium
 
 
 def potential_energy(X: np.ndarray, P: Packed, loads: np.ndarray) -> float:
@@ -153,7 +154,7 @@ def lowest_mode(model, x: np.ndarray, *, masses: str = "frame", guess: np.ndarra
     op = _operator(model, x, masses)
     m = op.free.size
     start = np.ones(m) if guess is None else np.asarray(guess, dtype=float).reshape(-1)[op.free] + 1e-3
-    found, u = _by_inertia(op, start)
+    found, u, K = _by_inertia(op, start)
     if u is not None and u @ op.stiffness(u) < 0.0:
         # a saddle's mode is the one the step off it follows: taken from C, whose K is the
         # matrix-free one the step's slopes use (on a hexagon's weak saddle, w = -1.2e-7, the
@@ -173,8 +174,29 @@ def lowest_mode(model, x: np.ndarray, *, masses: str = "frame", guess: np.ndarra
     area = np.repeat(film_areas(model), 3)
     # the Rayleigh quotients of the mode itself: where K is not smooth (a cable at exactly its
     # rest length, tension-only) the Ritz value of a symmetric solver need not be one
-    return Mode(float(u @ Ku), _shape(u, n), op.applications[0] + 1, found, float(u @ Ku / (u @ u)),
-                float(u @ Ku / (u @ (area * u))) if area.any() else float("nan"))
+    w = float(u @ Ku)
+    return Mode(w, _shape(u, n), op.applications[0] + 1, found, float(u @ Ku / (u @ u)),
+                float(u @ Ku / (u @ (area * u))) if area.any() else float("nan"),
+                _newton_step(model, x, K, op.free) if K is not None and w > 0.0 else None)
+
+
+def _newton_step(model, x: np.ndarray, K: sp.csc_matrix, free: np.ndarray) -> np.ndarray | None:
+    """(n, 3) mm: d = K^-1 r on the free DOFs (K their assembled stiffness, definite; r the
+    residual, loads less the gradient, at ``x``), the Newton step from ``x`` to the discrete
+    equilibrium: how far a relaxation stopped by its residual tolerance is from it, which along
+    a soft mode (r / w) the residual does not show. None where K cannot be factorised."""
+    P = model.pack()
+    X, G = np.zeros((P.n_total, 3)), np.zeros((P.n_total, 3))
+    X[: P.n] = x
+    gradient(X, P, G, np.zeros((0, 6)))
+    r = (model.loads - G[: P.n]).reshape(-1)[free]
+    try:
+        d = splu(K, permc_spec="MMD_AT_PLUS_A").solve(r)
+    except RuntimeError:  # singular
+        return None
+    step = np.zeros(3 * P.n)
+    step[free] = d
+    return step.reshape(P.n, 3)
 
 
 def _below(K: sp.csr_matrix, M: sp.csr_matrix, shift: float):
@@ -192,9 +214,9 @@ def _below(K: sp.csr_matrix, M: sp.csr_matrix, shift: float):
     return lu
 
 
-def _by_inertia(op: _Operator, start: np.ndarray) -> tuple[bool, np.ndarray | None]:
-    """The lowest mode on the assembled K: (converged, u (3n,) with u^T M u = 1), or (False,
-    None) where it cannot be had this way. The shift s starts at minus :data:`NEUTRAL` (a
+def _by_inertia(op: _Operator, start: np.ndarray) -> tuple[bool, np.ndarray | None, sp.csc_matrix]:
+    """The lowest mode on the assembled K: (converged, u (3n,) with u^T M u = 1, K on the free
+    DOFs), u None where it cannot be had this way. The shift s starts at minus :data:`NEUTRAL` (a
     stable state's, where the lowest mode is then the one nearest it) and goes down by decades
     until K - s M is definite (not below :data:`LOWEST_SHIFT`); shift-invert Lanczos at s then
     finds the eigenvalues nearest s, and the lowest found is the lowest only if K - w' M is
@@ -212,7 +234,7 @@ def _by_inertia(op: _Operator, start: np.ndarray) -> tuple[bool, np.ndarray | No
     while (lu := _below(K, M, shift)) is None:
         shift *= 10.0
         if shift < LOWEST_SHIFT:
-            return False, None
+            return False, None, K
     inverse = LinearOperator(K.shape, matvec=lu.solve, dtype=float)
     noise = np.random.default_rng(0).standard_normal(K.shape[0])
     for v0, modes in ((start, 1), (start / np.linalg.norm(start) + noise / np.linalg.norm(noise), SHIFT_INVERT_MODES)):
@@ -228,8 +250,8 @@ def _by_inertia(op: _Operator, start: np.ndarray) -> tuple[bool, np.ndarray | No
         if _below(K, M, w[lowest] - BELOW * max(abs(w[lowest]), NEUTRAL)) is not None:
             u = np.zeros(op.mass.shape[0])
             u[f] = v[:, lowest] / np.sqrt(v[:, lowest] @ (M @ v[:, lowest]))
-            return found, u
-    return False, None
+            return found, u, K
+    return False, None, K
 
 
 def film_areas(model) -> np.ndarray:

@@ -88,9 +88,26 @@ def test_the_lowest_mode_by_inertia_is_the_lanczos_one(monkeypatch):
     for x in (flat.x, curled.x):
         assembled = stability.lowest_mode(model, x)
         with monkeypatch.context() as patch:
-            patch.setattr(stability, "_by_inertia", lambda op, start: (False, None))
+            patch.setattr(stability, "_by_inertia", lambda op, start: (False, None, None))
             lanczos = stability.lowest_mode(model, x)
         assert assembled.found and lanczos.found
         assert assembled.eigenvalue == pytest.approx(lanczos.eigenvalue, rel=1e-4, abs=stability.NEUTRAL)
         cosine = np.sum(assembled.shape * lanczos.shape) / np.linalg.norm(assembled.shape) / np.linalg.norm(lanczos.shape)
         assert abs(cosine) > 0.999
+
+
+def test_the_newton_step_of_a_loosely_relaxed_state_is_its_distance_to_the_equilibrium():
+    """A DEMES relaxed to a residual of 1e-4 and to 1e-10: the Newton step K^-1 r at the loose
+    state has the length of its distance to the tight one (within 5 %), and the loose state
+    moved by it is a hundred times closer; the solver reports that length on every state."""
+    scene = scenes.paper_demes(1.2, "strip", **{"mesh.divisions": 8, "dr.membrane_net": "triangles"})
+    tight = dr.solve(scene.updated(**{"dr.tolerance": 1e-10}))
+    loose = dr.solve(scene.updated(**{"dr.tolerance": 1e-4}))
+    assert tight.converged and loose.converged
+    mode = stability.lowest_mode(dr.build(scene).model, loose.x)
+    distance = np.linalg.norm(loose.x - tight.x, axis=1).max()
+    step = np.linalg.norm(mode.newton_step, axis=1).max()
+    assert step == pytest.approx(distance, rel=0.05)
+    assert np.linalg.norm(loose.x + mode.newton_step - tight.x, axis=1).max() < 0.01 * distance
+    assert loose.info["newton_step_mm"] == pytest.approx(step, rel=1e-6)
+    assert tight.info["newton_step_mm"] < 1e-3 * distance

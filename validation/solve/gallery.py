@@ -37,7 +37,7 @@ ENERGY_AGREES = 1e-4
 COLUMNS = (
     ("scene", "-"), ("prestretch", "-"),
     ("dr_status", "-"), ("dr_angle", "deg"), ("dr_branch", "-"), ("dr_energy", "N mm"), ("dr_stable", "-"),
-    ("dr_jumps", "-"), ("dr_time", "s"), ("dr_reached", "-"), ("dr_mirror", "-"),
+    ("dr_jumps", "-"), ("dr_time", "s"), ("dr_reached", "-"), ("dr_mirror", "-"), ("dr_newton_step", "mm"),
     ("fem_status", "-"), ("fem_angle", "deg"), ("fem_branch", "-"), ("fem_energy", "N mm"), ("fem_stable", "-"),
     ("fem_jumps", "-"), ("fem_time", "s"), ("fem_reached", "-"), ("fem_mirror", "-"),
     ("angle_difference", "deg"), ("energy_difference", "-"), ("agree", "-"),
@@ -70,7 +70,8 @@ def _mirror_words(res: Result) -> str:
 def compare(name: str, lam: float, dr_state: Result | None, fem_state: Result | None) -> dict[str, Any]:
     """One gallery row: both solvers' states at ``lam`` and whether they are one state."""
     row: dict[str, Any] = {"scene": name, "prestretch": lam, **_solver_columns("dr", dr_state),
-                           **_solver_columns("fem", fem_state)}
+                           **_solver_columns("fem", fem_state),
+                           "dr_newton_step": dr_state.info.get("newton_step_mm", np.nan) if dr_state else np.nan}
     both = dr_state is not None and fem_state is not None and dr_state.converged and fem_state.converged
     if both:
         d_angle = abs(row["dr_angle"] - row["fem_angle"])
@@ -159,17 +160,19 @@ def table(rows: Sequence[dict[str, Any]], errors: Sequence[str] = (), seconds: f
              f"States agree within {ANGLE_AGREES:g} deg and {ENERGY_AGREES:g} relative energy. "
              "Stable: lowest eigenvalue of the stiffness not negative (DR against its masses, the FEM its tangent). "
              "Mirror: for a state against the scene's lift, its mirror image through the flat plane where that is a "
-             "stable state of the same energy (branch, deg).",
+             "stable state of the same energy (branch, deg). DR step: the length of the Newton step K^-1 r from DR's "
+             "state to the discrete equilibrium (mm), how far its residual tolerance left it.",
              "",
              "| scene | lambda | DR deg | FEM deg | branch DR/FEM | dE/E | agree | stable DR/FEM | mirror DR / FEM "
-             "| jumps DR / FEM | DR s | FEM s | status DR/FEM |",
-             "|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
+             "| DR step mm | jumps DR / FEM | DR s | FEM s | status DR/FEM |",
+             "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for r in rows:
         de = r.get("energy_difference", np.nan)
         lines.append(
             f"| {r['scene']} | {r['prestretch']:g} | {angle(r.get('dr_angle'))} | {angle(r.get('fem_angle'))} | "
             f"{r.get('dr_branch', '-')}/{r.get('fem_branch', '-')} | {de:.1e} | {'yes' if r['agree'] else 'no'} | "
             f"{r.get('dr_stable', '-')}/{r.get('fem_stable', '-')} | {r.get('dr_mirror') or '-'} / {r.get('fem_mirror') or '-'} | "
+            f"{r.get('dr_newton_step', np.nan):.1e} | "
             f"{r.get('dr_jumps') or '-'} / {r.get('fem_jumps') or '-'} | "
             f"{r.get('dr_time', np.nan):.1f} | {r.get('fem_time', np.nan):.1f} | {_status(r, 'dr')}/{_status(r, 'fem')} |")
     agreed = sum(bool(r["agree"]) for r in rows)
