@@ -57,6 +57,13 @@ BELOW = 1e-3
 """The lowest eigenvalue found is checked by the inertia of K - w' M at w' this fraction of
 its size (at least :data:`NEUTRAL`) below it."""
 
+MAX_DIFFERENCES = 300
+"""K is assembled only where it takes at most this many central differences (3 per node
+group, :mod:`dr.hessian`); else the search is Lanczos on C, whose checks took 100-3,800
+products on the gallery's scenes and about 300 on the paper's. A clustered net's cable ties a
+whole row of nodes together: 67 groups on 14 divisions, 342 on 28, 1,169 on 56 (7,000
+gradients a check, against about 600 for Lanczos)."""
+
 LOWEST_SHIFT = -10.0
 """The lowest shift the inertia test tries: every eigenvalue of K v = w M v is above about -1
 where the masses bound the stiffness (f = 2)."""
@@ -89,7 +96,7 @@ class _Operator(NamedTuple):
     stiffness: Callable[[np.ndarray], np.ndarray]  # u (3n,) -> K u (3n,), N/mm
     applications: list[int]  # [applications of C so far]
     mass: sp.csr_matrix  # M (3n, 3n), the masses C is scaled by
-    assembled: Callable[[], tuple[sp.csr_matrix, int]]  # () -> K (3n, 3n) N/mm, gradient pairs it took
+    assembled: Callable[[], tuple[sp.csr_matrix, int] | None]  # () -> K (3n, 3n) N/mm, gradient pairs it took; None: too dear
 
 
 def _operator(model, x: np.ndarray, masses: str) -> _Operator:
@@ -126,9 +133,12 @@ def _operator(model, x: np.ndarray, masses: str) -> _Operator:
         applications[0] += 1
         return half(stiffness(to_displacement(y)))[free]
 
-    def assembled() -> tuple[sp.csr_matrix, int]:
+    def assembled() -> tuple[sp.csr_matrix, int] | None:
         held = model.fixed.reshape(n, 3)
-        return hessian.stiffness_matrix(P0, x, ~held, hessian.pattern(P0, (~held).any(axis=1)), h)
+        pattern = hessian.pattern(P0, (~held).any(axis=1))
+        if 3 * (int(pattern.colour.max(initial=-1)) + 1) > MAX_DIFFERENCES:
+            return None
+        return hessian.stiffness_matrix(P0, x, ~held, pattern, h)
 
     m = free.size
     return _Operator(LinearOperator((m, m), matvec=C, dtype=float), free, to_displacement, stiffness, applications,
@@ -148,8 +158,9 @@ def lowest_mode(model, x: np.ndarray, *, masses: str = "frame", guess: np.ndarra
     K - s M (:func:`_below`); shift-invert Lanczos at the bracket's lower end then finds it in
     a few steps, where Lanczos on C = M^-1/2 K M^-T/2 alone needed hundreds to thousands of
     products (the soft end of the spectrum is clustered near 0). Where the inertia cannot be
-    read (a zero pivot), that Lanczos on C, whose spectrum lies in about [-1, 1] because the
-    masses bound the stiffness, is the search."""
+    read (a zero pivot) or K would take more than :data:`MAX_DIFFERENCES` differences to
+    assemble (a clustered net on a fine mesh), Lanczos on C, whose spectrum lies in about
+    [-1, 1] because the masses bound the stiffness, is the search."""
     n = model.n
     op = _operator(model, x, masses)
     m = op.free.size
@@ -214,9 +225,10 @@ def _below(K: sp.csr_matrix, M: sp.csr_matrix, shift: float):
     return lu
 
 
-def _by_inertia(op: _Operator, start: np.ndarray) -> tuple[bool, np.ndarray | None, sp.csc_matrix]:
+def _by_inertia(op: _Operator, start: np.ndarray) -> tuple[bool, np.ndarray | None, sp.csc_matrix | None]:
     """The lowest mode on the assembled K: (converged, u (3n,) with u^T M u = 1, K on the free
-    DOFs), u None where it cannot be had this way. The shift s starts at minus :data:`NEUTRAL` (a
+    DOFs), u None where it cannot be had this way (K None where it is not assembled:
+    :data:`MAX_DIFFERENCES`). The shift s starts at minus :data:`NEUTRAL` (a
     stable state's, where the lowest mode is then the one nearest it) and goes down by decades
     until K - s M is definite (not below :data:`LOWEST_SHIFT`); shift-invert Lanczos at s then
     finds the eigenvalues nearest s, and the lowest found is the lowest only if K - w' M is
@@ -226,7 +238,10 @@ def _by_inertia(op: _Operator, start: np.ndarray) -> tuple[bool, np.ndarray | No
     part along it: the lift is mirror-symmetric, a twist is not), it starts again from
     ``start`` plus a fixed random vector, so that the start has a part along every mode, and
     keeps the lowest of :data:`SHIFT_INVERT_MODES` found."""
-    K, pairs = op.assembled()
+    built = op.assembled()
+    if built is None:
+        return False, None, None
+    K, pairs = built
     op.applications[0] += pairs
     f = op.free
     K, M = K[f][:, f].tocsc(), op.mass[f][:, f].tocsc()
