@@ -17,8 +17,8 @@ import numpy as np
 
 from results import Result
 from scenes import Scene
-from scenes.electric import (FLAT_DEG, check_voltages, dielectric_coefficient, mounted_thickness,
-                             path_end)
+from scenes.electric import (FLAT_DEG, check_voltages, driven_at, electrode_coverage, film_coefficients,
+                             highest_voltage, mounted_thickness, path_end)
 
 from .demes import solve
 from .demes_model import build, check_voltage_net
@@ -29,9 +29,12 @@ BISECTIONS = 4
 """Halvings of a failed voltage step before the path counts as ended (pull-in)."""
 
 
-def voltage_sweep(scene: Scene, voltages: Sequence[float], progress: bool = False
-                  ) -> Iterator[Result]:
+def voltage_sweep(scene: Scene, voltages: Sequence[float], progress: bool = False,
+                  electrodes: Sequence[str] | None = None) -> Iterator[Result]:
     """States of the pre-stretched DEMES at increasing voltages (V), one warm-started path.
+
+    The voltages drive the named ``electrodes`` (default: all; the whole film where the scene
+    has no ``[[electrodes]]``); the others hold their own voltage from the pre-stretched state on.
 
     Yields one :class:`Result` per voltage until the frame is flat (that state is yielded with
     ``info['flat'] = True``) or the path stops (pull-in, contact, no convergence; the last good
@@ -40,17 +43,19 @@ def voltage_sweep(scene: Scene, voltages: Sequence[float], progress: bool = Fals
     ``film_thickness_mm`` (mean current thickness).
     """
     volts = check_voltages(voltages)
-    check_voltage_net(scene, volts[-1])
-    scene = scene.updated(**{"loading.voltage": 0.0})
+    check_voltage_net(scene, max(volts[-1], highest_voltage(scene)))
+    scene = driven_at(scene, 0.0, electrodes)
     state = solve(scene, progress=progress)
     dm = build(scene)
     model, st = dm.model, scene.dr
+    cover = electrode_coverage(scene, model.nodes[model.dielectric_triangles])
+    at = lambda v: driven_at(scene, v, electrodes)  # noqa: E731
     flat_area = model.dielectric_energy(dm.model.nodes)[1]
     force_scale = 0.01 * scene.membrane.E * dm.cable_area
     v_now, stop = 0.0, None if state.converged else (state.status, state.message)
 
     def relax_at(v: float, x: np.ndarray) -> Result:
-        model.dielectric_coefficient = dielectric_coefficient(scene, v)
+        model.dielectric_coefficient = film_coefficients(at(v), cover)
         return relax(model, tol=st.tolerance, mass_safety=st.mass_safety,
                      max_iterations=st.max_iterations, x_start=x, contact=dm.contact,
                      final_checks=dm.final_checks, force_scale=force_scale)
@@ -69,7 +74,7 @@ def voltage_sweep(scene: Scene, voltages: Sequence[float], progress: bool = Fals
                 state, v_now = res, trial
                 continue
             stop = _stop(bad[1], v_now, bad[0])
-        out = _finish(state, scene.updated(**{"loading.voltage": v_now}), dm, v_now, flat_area)
+        out = _finish(state, at(v_now), dm, v_now, flat_area, cover)
         out.iterations, out.wall_time = iterations, wall
         out.info["requested_voltage_V"] = v
         if stop is not None:
@@ -98,12 +103,12 @@ def _stop(failed: Result, v_good: float, v_bad: float) -> tuple[str, str]:
                        f"there ({failed.status}: {failed.message})")
 
 
-def _finish(res: Result, scene: Scene, dm, voltage: float, flat_area: float) -> Result:
-    """A copy of the state with its scene, frame and actuation measures."""
+def _finish(res: Result, scene: Scene, dm, voltage: float, flat_area: float, cover: np.ndarray) -> Result:
+    """A copy of the state with its scene (at the state's voltages), frame and actuation measures."""
     res = dataclasses.replace(res, info=dict(res.info))
     res.scene, res.prestretch = scene, scene.prestretch
     res.frame_nodes, res.frame_s = dm.frame_nodes, dm.frame_s
-    dm.model.dielectric_coefficient = dielectric_coefficient(scene, voltage)
+    dm.model.dielectric_coefficient = film_coefficients(scene, cover)
     e_el, area = dm.model.dielectric_energy(res.x)
     res.blocks = {**res.blocks, "membrane_surface": film_surface(dm.model, res.x, scene)}
     res.info.update(voltage_V=voltage, capacitor_energy=-e_el + 0.0, electrostatic_energy=e_el,

@@ -11,7 +11,7 @@ from scipy.spatial import cKDTree
 
 from results.path import neutral_stiffness
 from scenes import Scene, SceneError
-from scenes.electric import dielectric_coefficient
+from scenes.electric import electrode_coverage, film_coefficients, highest_voltage
 from scenes.fields import prestretch_value
 from scenes.mesh import membrane_mesh
 
@@ -62,7 +62,7 @@ def cable_area(scene: Scene, spacing: float) -> float:
 def build(scene: Scene, prestretch: float | None = None) -> DemesModel:
     """Build the DR model of ``scene`` at ``prestretch`` (default: the scene's)."""
     lam = scene.prestretch if prestretch is None else prestretch_value("pre-stretch", prestretch)
-    check_voltage_net(scene, scene.loading.voltage)
+    check_voltage_net(scene, highest_voltage(scene))
     if scene.prestretch_path.isotropic:
         return _build(scene, lam)
     # unequal pre-stretch: built unstretched, then every membrane element given the tensor; the
@@ -144,7 +144,7 @@ def _build(scene: Scene, lam: float) -> DemesModel:
         else:
             m.add_link(cable[:-1], cable[1:], EA, rest_length=flat / lam, tension_only=mem.tension_only)
 
-    m.add_dielectric(net.triangles, dielectric_coefficient(scene))
+    m.add_dielectric(net.triangles, film_coefficients(scene, electrode_coverage(scene, net.nodes[net.triangles])))
     start = net.nodes.copy()
     start[:, 2] += np.where(m.fixed[:, 2], 0.0, scene.initial_lift(net.nodes[:, :2]))
     contact, final_checks = None, []
@@ -175,7 +175,7 @@ def _build_triangles(scene: Scene, lam: float) -> DemesModel:
     m.add_rod(mesh.frame_nodes, EA=frame.EA, EI=frame.EI, closed=True,
               EI_strong=frame.EI_strong if strip else None, GJ=frame.GJ if strip else None,
               bond=mesh.bond_nodes if strip else None)
-    m.add_dielectric(mesh.triangles, dielectric_coefficient(scene))
+    m.add_dielectric(mesh.triangles, film_coefficients(scene, electrode_coverage(scene, nodes[mesh.triangles])))
     start = nodes.copy()
     start[:, 2] += np.where(m.fixed[:, 2], 0.0, scene.initial_lift(nodes[:, :2]))
     contact, final_checks = None, []

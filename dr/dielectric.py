@@ -37,45 +37,64 @@ class Fields(NamedTuple):
 
 class Methods:
     """The :class:`dr.Model` methods of the dielectric film; ``dielectric_coefficient`` is its
-    c (N/mm), set by :meth:`add_dielectric` and changed with the voltage."""
+    c (N/mm): one number for the whole film or one per triangle, set by :meth:`add_dielectric`
+    and changed with the voltage."""
 
-    dielectric_coefficient = 0.0
+    dielectric_coefficient: float | np.ndarray = 0.0
 
-    def add_dielectric(self, triangles: np.ndarray, coefficient: float) -> None:
+    def add_dielectric(self, triangles: np.ndarray, coefficient: float | np.ndarray) -> None:
         """Make the film over node triples ``triangles`` an ideal dielectric (:mod:`dr.dielectric`).
 
         Its energy is -c a^2 / A per triangle (current area a, flat area A in the reference),
-        c = ``coefficient`` (N/mm, >= 0) from :func:`scenes.electric.dielectric_coefficient`;
-        change the voltage by setting ``dielectric_coefficient``. The reference must be flat.
+        c = ``coefficient`` (N/mm, >= 0; one for all or one per triangle, 0 where no electrode
+        covers it) from :func:`scenes.electric.film_coefficients`; change the voltage by setting
+        ``dielectric_coefficient``. The reference must be flat.
         """
         t = np.asarray(triangles)
         if t.ndim != 2 or t.shape[1] != 3 or t.shape[0] == 0:
             raise DRError("dielectric triangles must be a non-empty (t, 3) array of node indices")
         t = self.node_indices("dielectric triangle nodes", t.ravel()).reshape(-1, 3)
-        c = float(coefficient)
-        if not np.isfinite(c) or c < 0:
-            raise DRError(f"dielectric coefficient = {coefficient!r} must be a number >= 0 (N/mm)")
         _, area = shape_gradients(self.nodes[t][:, :, :2])
         if np.any(area <= 1e-12 * np.ptp(self.nodes[:, :2]) ** 2):
             raise DRError("a dielectric triangle has no area: its three nodes lie on one line")
+        _coefficients(coefficient, len(t))
         self.stored[Fields][:] = [(t, area)]
-        self.dielectric_coefficient = c
+        self.dielectric_coefficient = coefficient
+
+    @property
+    def dielectric_triangles(self) -> np.ndarray:
+        """The dielectric film's triangles (t, 3) (node indices); none without a dielectric."""
+        return self.stored[Fields][0][0] if self.stored[Fields] else np.zeros((0, 3), np.int64)
 
     def dielectric_energy(self, x: np.ndarray) -> tuple[float, float]:
         """(electrostatic energy N mm, current film area mm^2) at positions x (n, 3); (0, 0)
         without a dielectric."""
         if not self.stored[Fields]:
             return 0.0, 0.0
-        return energies(x, *self.stored[Fields][0], self.dielectric_coefficient)
+        t, area = self.stored[Fields][0]
+        return energies(x, t, area, _coefficients(self.dielectric_coefficient, len(t)))
+
+
+def _coefficients(coefficient: float | np.ndarray, n: int) -> np.ndarray:
+    """c (N/mm) per triangle from one number or n; a clear DRError if they are not n numbers >= 0."""
+    c = np.asarray(coefficient, float)
+    if c.ndim > 1 or (c.ndim == 1 and len(c) != n):
+        raise DRError(f"dielectric coefficient: give one number or one per triangle ({n}), not shape {c.shape}")
+    if not np.all(np.isfinite(c)) or np.any(c < 0):
+        raise DRError("dielectric coefficient must be numbers >= 0 (N/mm)")
+    return np.broadcast_to(c, (n,))
 
 
 def pack(model, rest) -> Fields:
-    """The dielectric film of ``model`` (:meth:`dr.Model.add_dielectric`) at its coefficient;
-    ``rest`` is unused. At zero voltage it has no rows: V = 0 is the mechanical model bit for bit."""
-    if not model.stored[Fields] or model.dielectric_coefficient <= 0.0:
+    """The dielectric triangles of ``model`` (:meth:`dr.Model.add_dielectric`) with c > 0 at
+    their coefficient; ``rest`` is unused. At zero voltage it has no rows: V = 0 is the
+    mechanical model bit for bit, and film under no electrode costs nothing."""
+    if not model.stored[Fields]:
         return Fields(np.zeros((0, 3), np.int64), np.zeros((0, 2)))
     t, area = model.stored[Fields][0]
-    return Fields(t, np.column_stack([area, np.full(len(area), model.dielectric_coefficient)]))
+    c = _coefficients(model.dielectric_coefficient, len(t))
+    on = c > 0.0
+    return Fields(t[on], np.column_stack([area[on], c[on]]))
 
 
 def forces(X: np.ndarray, P, moment: np.ndarray) -> dict[str, np.ndarray]:
@@ -204,10 +223,10 @@ def stiffness(X, P, S, with_links):
         gershgorin(H, idx, S)
 
 
-def energies(x: np.ndarray, triangles: np.ndarray, flat_area: np.ndarray, coefficient: float
+def energies(x: np.ndarray, triangles: np.ndarray, flat_area: np.ndarray, coefficient: np.ndarray
              ) -> tuple[float, float]:
     """(electrostatic energy -sum c a^2 / A, current area sum a) of triangles at positions x
-    (n, 3): N mm and mm^2."""
+    (n, 3), c per triangle: N mm and mm^2."""
     p = x[triangles]
     a = 0.5 * np.linalg.norm(np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]), axis=1)
-    return float(-coefficient * np.sum(a * a / flat_area)), float(a.sum())
+    return float(-np.sum(coefficient * a * a / flat_area)), float(a.sum())

@@ -57,5 +57,5 @@ def film_surface(model: Model, x: np.ndarray, scene) -> CellBlock:
     of ``scene`` (the state's pre-stretch and voltage)."""
     P = model.pack()
     strains = _edge_family_strains(model, P, x) if P.clu_seg.size else None
-    fields = film_fields(triangle_gradients(model.nodes, x, model.triangles), FilmLaw.of_scene(scene), strains)
+    fields = film_fields(triangle_gradients(model.nodes, x, model.triangles), FilmLaw.of_scene(scene, model.nodes[model.triangles]), strains)
     return CellBlock("triangle", model.triangles, fields)

@@ -24,7 +24,7 @@ from results import Result
 from results.metrics import outline_bending_angle
 from results.path import neutral_stiffness
 from scenes import Scene
-from scenes.electric import (FLAT_DEG, check_voltages, dielectric_coefficient, mounted_thickness,
+from scenes.electric import (FLAT_DEG, check_voltages, driven_at, film_coefficients, mounted_thickness,
                              path_end)
 
 from .model import DemesProblem
@@ -58,7 +58,7 @@ class VoltagePath:
     y
         Its equilibrium at 0 V (3 nn,).
     coefficient
-        The dielectric coefficient c (N/mm) at a voltage (V).
+        The dielectric coefficient c (N/mm; one, or one per element) at a voltage (V).
     neutral
         Eigenvalues (N/mm^3) above minus this count as neutral, not unstable.
     snap_iterations
@@ -68,7 +68,7 @@ class VoltagePath:
         has no tension left); a branch that ends at such a state is not searched for a snap.
     """
 
-    def __init__(self, problem, y: np.ndarray, coefficient: Callable[[float], float],
+    def __init__(self, problem, y: np.ndarray, coefficient: Callable[[float], float | np.ndarray],
                  neutral: float, snap_iterations: int = SNAP_ITERATIONS,
                  flat: Callable[[np.ndarray], bool] | None = None):
         self.problem = problem
@@ -153,13 +153,13 @@ def _actuation_info(problem: DemesProblem, y: np.ndarray, voltage: float) -> dic
 
 
 def voltage_sweep(scene: Scene, voltages: Sequence[float], refinement: int | None = None,
-                  step: float | None = None) -> Iterator[Result]:
+                  step: float | None = None, electrodes: Sequence[str] | None = None) -> Iterator[Result]:
     """States of the pre-stretched DEMES at increasing voltages, one warm-started path.
 
     Parameters
     ----------
     scene
-        The DEMES scene at its pre-stretch (``scene.loading.voltage`` is ignored).
+        The DEMES scene at its pre-stretch (the driven electrodes' voltage is ignored).
     voltages
         Increasing voltages (V, >= 0).
     refinement
@@ -167,6 +167,9 @@ def voltage_sweep(scene: Scene, voltages: Sequence[float], refinement: int | Non
     step
         Largest voltage step (V) between solves (default: the smallest gap of ``voltages``, at
         most 100 V).
+    electrodes
+        Names of the electrodes the voltages drive (default: all; the whole film where the
+        scene has no ``[[electrodes]]``); the others hold their own voltage throughout.
 
     Yields
     ------
@@ -178,7 +181,8 @@ def voltage_sweep(scene: Scene, voltages: Sequence[float], refinement: int | Non
     """
     volts = check_voltages(voltages)
     level = refinement_level(scene, refinement)
-    scene = scene.updated(**{"loading.voltage": 0.0})
+    scene = driven_at(scene, 0.0, electrodes)
+    at = lambda v: driven_at(scene, v, electrodes)  # noqa: E731
     problem = DemesProblem(scene, level, scene.fem.element)
     t0 = time.perf_counter()
     pre = Continuation(problem).advance(scene.prestretch)
@@ -189,7 +193,7 @@ def voltage_sweep(scene: Scene, voltages: Sequence[float], refinement: int | Non
     def flat(y: np.ndarray) -> bool:  # as path_end reads the state (a 600-iteration snap search saved)
         return abs(outline_bending_angle(y.reshape(-1, 3)[mesh.frame_nodes], mesh.frame_s, scene.outline)) < FLAT_DEG
 
-    path = VoltagePath(problem, pre.y, lambda v: dielectric_coefficient(scene, v),
+    path = VoltagePath(problem, pre.y, lambda v: film_coefficients(at(v), problem.electrode_cover),
                        neutral_stiffness(scene), flat=flat)
     stop = None if pre.converged else VoltageStop(pre.status, "the pre-stretched state: " + pre.detail)
     records = list(pre.records)
@@ -202,7 +206,7 @@ def voltage_sweep(scene: Scene, voltages: Sequence[float], refinement: int | Non
         out = Outcome(path.y, problem.lam, "converged", "", records)
         out.snaps = path.snaps[snapped:] if stop is None else []
         steps += len(records)
-        res = make_result(problem, out, problem.lam, 0.0, steps, scene.updated(**{"loading.voltage": path.voltage}))
+        res = make_result(problem, out, problem.lam, 0.0, steps, at(path.voltage))
         res.info.update(_actuation_info(problem, path.y, path.voltage))
         res.info["requested_voltage_V"] = v
         res.wall_time = time.perf_counter() - t0

@@ -59,14 +59,21 @@ class Dielectric:
     basis
         The membrane's ``Basis(mesh, ElementVector(..., 3))`` on the flat mesh.
     coefficient
-        c = eps0 eps_r V^2 / (2 h_m), N/mm; set the attribute to change the voltage.
+        c = eps0 eps_r V^2 / (2 h_m), N/mm: one for the whole film or one per element (0 where
+        no electrode covers it, :func:`scenes.electric.film_coefficients`); set the attribute to
+        change the voltage.
     """
 
-    def __init__(self, basis, coefficient: float = 0.0):
+    def __init__(self, basis, coefficient: float | np.ndarray = 0.0):
         self.basis = basis
         self.coefficient = coefficient
         locs = basis.doflocs[:, ::3]
         self.X = np.column_stack([locs[0], locs[1], np.zeros(locs.shape[1])])
+
+    @property
+    def _c(self) -> np.ndarray:
+        """c per element as (nel, 1), to scale the (nel, nqp) quadrature values."""
+        return np.broadcast_to(np.asarray(self.coefficient, float), (self.basis.nelems,))[:, None]
 
     def _gradient(self, x: np.ndarray) -> np.ndarray:
         u = (x - self.X).ravel()
@@ -74,15 +81,15 @@ class Dielectric:
 
     def energy(self, x: np.ndarray) -> float:
         """Electrostatic free energy (N mm, <= 0) at node positions x (nn, 3)."""
-        if self.coefficient == 0.0:
+        if not np.any(self.coefficient):
             return 0.0
         j2, _, _ = area_ratio_squared(self._gradient(x), 0)
-        return float(_energy_form.assemble(self.basis, W=-self.coefficient * j2))
+        return float(_energy_form.assemble(self.basis, W=-self._c * j2))
 
     def evaluate(self, x: np.ndarray, order: int = 2
                  ) -> tuple[float, np.ndarray, sp.csr_matrix | None]:
         """Energy (N mm), gradient (3 nn,) N and (order 2) tangent (3 nn, 3 nn) N/mm."""
-        c = self.coefficient
+        c = self._c
         j2, d, h = area_ratio_squared(self._gradient(x), order)
         e = float(_energy_form.assemble(self.basis, W=-c * j2))
         g = _residual_form.assemble(self.basis, P=np.ascontiguousarray(-c * d))
@@ -100,4 +107,4 @@ class Dielectric:
         """E_cap = integral of eps V^2 / (2 h) over the current area = c * integral of J^2 dA_flat
         (N mm): minus the electrostatic free energy at fixed voltage."""
         j2, _, _ = area_ratio_squared(self._gradient(x), 0)
-        return float(_energy_form.assemble(self.basis, W=self.coefficient * j2))
+        return float(_energy_form.assemble(self.basis, W=self._c * j2))

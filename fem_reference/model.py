@@ -17,7 +17,7 @@ from skfem import BilinearForm
 from skfem.helpers import dot as fdot
 
 from scenes import Scene
-from scenes.electric import dielectric_coefficient
+from scenes.electric import electrode_coverage, film_coefficients
 
 from .frame import Rod, RodProperties, StencilTerms, scatter
 from .dielectric import Dielectric
@@ -63,8 +63,11 @@ class DemesProblem:
         mem = scene.membrane
         self.membrane = Membrane(self.mesh.basis, mem.law, mem.E, mem.thickness, mem.tension_only, mem.gent_jm,
                                  path=scene.prestretch_path)
-        # at scene.loading.voltage; set .coefficient (dielectric_coefficient) to change it
-        self.dielectric = Dielectric(self.mesh.basis, dielectric_coefficient(scene))
+        lin = self.mesh.linear
+        self.flat_corners = np.transpose(lin.p[:, lin.t], (2, 1, 0))  # (nel, 3, 2) straight triangles
+        self.electrode_cover = electrode_coverage(scene, self.flat_corners)
+        # at the scene's voltages; set .coefficient (film_coefficients) to change them
+        self.dielectric = Dielectric(self.mesh.basis, film_coefficients(scene, self.electrode_cover))
         self.X = self.membrane.X
         nn = self.X.shape[0]
         self.n_dofs = 3 * nn
@@ -141,7 +144,7 @@ class DemesProblem:
         xm, n, ids = self._film_positions(x)
         e_m, g_m, K_m = self.membrane.evaluate(xm, self.lam, order)
         e_d = 0.0
-        if self.dielectric.coefficient != 0.0:
+        if np.any(self.dielectric.coefficient):
             e_d, g_d, K_d = self.dielectric.evaluate(xm, order)
             g_m = g_m + g_d
             K_m = K_m + K_d if order >= 2 else None

@@ -62,7 +62,8 @@ class FilmLaw:
     permittivity
         Absolute permittivity eps0 eps_r, N/V^2 (with V in volts and h in mm, eps (V/h)^2 is in MPa).
     voltage
-        Voltage across the film, V.
+        Voltage across the film, V: one for the whole film or one per triangle (0 where no
+        electrode covers it; ``scenes.electric.effective_voltage`` where one covers part).
     electric_thickness
         Mounted thickness for the electric field, mm (``scenes.electric.mounted_thickness``).
     prestretch_tensor
@@ -77,19 +78,22 @@ class FilmLaw:
     tension_only: bool = True
     gent_jm: float = np.inf
     permittivity: float = 0.0
-    voltage: float = 0.0
+    voltage: float | np.ndarray = 0.0
     electric_thickness: float | None = None
     prestretch_tensor: np.ndarray | None = None
 
     @classmethod
-    def of_scene(cls, scene: Any) -> "FilmLaw":
-        """The film of a ``scenes.Scene`` at its pre-stretch and voltage."""
-        from scenes.electric import EPSILON_0, mounted_thickness  # results must not need scenes for plain use
+    def of_scene(cls, scene: Any, corners: np.ndarray) -> "FilmLaw":
+        """The film of a ``scenes.Scene`` at its pre-stretch and voltage, over flat triangles of
+        corners (t, 3, 2+) mm (their voltage is that of the electrodes over them)."""
+        # results must not need scenes for plain use
+        from scenes.electric import EPSILON_0, effective_voltage, electrode_coverage, mounted_thickness
 
         m = scene.membrane
         path = scene.prestretch_path
         return cls(m.law, m.E, m.thickness, scene.prestretch, m.tension_only, m.gent_jm,
-                   EPSILON_0 * m.permittivity, scene.loading.voltage, mounted_thickness(scene),
+                   EPSILON_0 * m.permittivity, effective_voltage(scene, electrode_coverage(scene, corners)),
+                   mounted_thickness(scene),
                    None if path.isotropic else path.tensor(scene.prestretch))
 
 

@@ -61,8 +61,9 @@ def sections() -> list[tuple[str, str, list[FieldDoc]]]:
     """(TOML table, what it holds, its fields) for the scene's top level and each section."""
     top = ("", "The scene's name and description, at the top of the file.",
            [_describe(f, "") for f in _spec_fields(Scene)])
+    tables = {**Scene.SECTIONS, **Scene.LISTS}
     return [top] + [(key, " ".join((cls.__doc__ or "").split()), [_describe(f, f"{key}.") for f in _spec_fields(cls)])
-                    for key, cls in Scene.SECTIONS.items()]
+                    for key, cls in tables.items()]
 
 
 def _cell(text: str) -> str:
@@ -73,7 +74,8 @@ def markdown() -> str:
     """docs/scenes.md."""
     out = [INTRO]
     for key, what, fields in sections():
-        out += [f"## {f'[{key}]' if key else 'Top level'}", "", what, "",
+        heading = f"[[{key}]]" if key in Scene.LISTS else f"[{key}]" if key else "Top level"
+        out += [f"## {heading}", "", what, "",
                 "| field | unit | default | accepted | meaning |", "| --- | --- | --- | --- | --- |"]
         out += [f"| `{d.name}` | {_cell(d.unit)} | `{_cell(d.default)}` | {_cell(d.bounds)} | {_cell(d.meaning)} |"
                 for d in fields]

@@ -13,6 +13,9 @@ from __future__ import annotations
 import math
 from typing import Sequence
 
+import numpy as np
+
+from .electrodes import coverage
 from .errors import SceneError
 from .scene import Scene
 
@@ -38,6 +41,56 @@ def dielectric_coefficient(scene: Scene, voltage: float | None = None) -> float:
     ``scene.loading.voltage``): c = eps0 eps_r V^2 / (2 h_m)."""
     v = scene.loading.voltage if voltage is None else voltage
     return EPSILON_0 * scene.membrane.permittivity * v * v / (2.0 * mounted_thickness(scene))
+
+
+def electrode_coverage(scene: Scene, corners: np.ndarray) -> np.ndarray:
+    """Fraction (t, e) of each flat triangle (corners (t, 3, 2+) mm) under each of the scene's
+    electrodes; one column of ones where the scene has one electrode over the whole film."""
+    if not scene.electrodes:
+        return np.ones((len(corners), 1))
+    return coverage(scene.electrodes, corners)
+
+
+def electrode_voltages(scene: Scene) -> np.ndarray:
+    """Voltage (V) of each column of :func:`electrode_coverage`."""
+    if not scene.electrodes:
+        return np.array([scene.loading.voltage])
+    return np.array([e.voltage for e in scene.electrodes])
+
+
+def film_coefficients(scene: Scene, cover: np.ndarray) -> np.ndarray:
+    """c (N/mm) of each triangle's dielectric energy -c J^2 per unit flat area, from its
+    ``cover`` (:func:`electrode_coverage`): eps0 eps_r / (2 h_m) times the sum over electrodes
+    of the covered fraction times V^2."""
+    return dielectric_coefficient(scene, 1.0) * (cover @ electrode_voltages(scene) ** 2)
+
+
+def effective_voltage(scene: Scene, cover: np.ndarray) -> np.ndarray:
+    """Voltage (V) per triangle whose Maxwell stress on the whole triangle equals the mean over
+    its area: sqrt(sum of covered fraction times V^2)."""
+    return np.sqrt(cover @ electrode_voltages(scene) ** 2)
+
+
+def highest_voltage(scene: Scene) -> float:
+    """The largest voltage (V) on any of the scene's electrodes."""
+    return float(electrode_voltages(scene).max())
+
+
+def driven_at(scene: Scene, voltage: float, electrodes: Sequence[str] | None = None) -> Scene:
+    """The scene with ``voltage`` (V) on the named ``electrodes`` (default: every electrode, or
+    the whole film's ``loading.voltage``); the others keep theirs."""
+    if not scene.electrodes:
+        if electrodes:
+            raise SceneError(f"--electrode {electrodes[0]}: the scene has no [[electrodes]]; its one "
+                             "electrode covers the whole film, and a voltage sweep drives it")
+        return scene.updated(**{"loading.voltage": voltage})
+    names = [e.name for e in scene.electrodes]
+    for n in electrodes or ():
+        if n not in names:
+            raise SceneError(f"--electrode {n}: no such electrode; the scene's are {', '.join(names)}")
+    chosen = set(electrodes or names)
+    return scene.updated(electrodes=[{**e.to_dict(), "voltage": voltage if e.name in chosen else e.voltage}
+                                     for e in scene.electrodes])
 
 
 def check_voltages(voltages: Sequence[float]) -> list[float]:

@@ -17,6 +17,7 @@ from .errors import SceneError
 from .fields import (PRESTRETCH_MAX, Section, between, boolean, finite, gent_jm_value, integer_at_least,
                      non_negative, one_of, optional, permittivity_value, positive, prestretch_list,
                      prestretch_spec, show_value, spec, vertex_list)
+from .electrodes import ElectrodeSpec, check_electrodes, electrodes_from_list
 from .geometry import Outline, equilateral_triangle
 from .prestretch import PrestretchPath
 
@@ -31,6 +32,25 @@ GENT_JM_VHB = 6.0**2 + 2.0 / 6.0 - 3.0
 
 
 # ----------------------------------------------------------------------------- sections
+
+
+def parent_table(data: dict[str, Any], key: str) -> tuple[dict[str, Any], str]:
+    """(table, field) that the dotted ``key`` names in a scene mapping (:meth:`Scene.to_dict`);
+    an item of an array of tables is named by its name: ``electrodes.left.voltage``."""
+    *path, last = key.split(".")
+    node: Any = data
+    for p in path:
+        if isinstance(node, list):
+            node = next((item for item in node if isinstance(item, dict) and item.get("name") == p), None)
+            if node is None:
+                raise SceneError(f"no electrode named {p!r} in {key!r}")
+        elif p in node and isinstance(node[p], (dict, list)):
+            node = node[p]
+        else:
+            raise SceneError(f"unknown scene section {p!r} in {key!r}")
+    if isinstance(node, list):
+        raise SceneError(f"{key!r} names a table, not a field: add the field, e.g. {key}.voltage")
+    return node, last
 
 
 @dataclass(frozen=True)
@@ -331,6 +351,7 @@ class Scene:
     mesh: MeshSpec = field(default_factory=MeshSpec)
     dr: DRSpec = field(default_factory=DRSpec)
     fem: FEMSpec = field(default_factory=FEMSpec)
+    electrodes: tuple[ElectrodeSpec, ...] = ()
 
     SECTIONS: ClassVar[dict[str, type]] = {  # the scene's TOML tables and their specs, in file order
         "frame": FrameSpec,
@@ -342,8 +363,12 @@ class Scene:
         "dr": DRSpec,
         "fem": FEMSpec,
     }
+    LISTS: ClassVar[dict[str, type]] = {  # the scene's arrays of tables ([[key]]), after the sections
+        "electrodes": ElectrodeSpec,
+    }
 
     def __post_init__(self) -> None:
+        object.__setattr__(self, "electrodes", electrodes_from_list(self.electrodes))
         for key, limit in (("name", 100), ("description", 10_000)):
             value = getattr(self, key)
             if not isinstance(value, str) or len(value) > limit:
@@ -369,6 +394,7 @@ class Scene:
                 f"(mesh.divisions x mesh.grading x 2^fem.refinement), above {2 * MAX_DIVISIONS}: lower "
                 "mesh.grading, mesh.divisions or fem.refinement"
             )
+        check_electrodes(self.electrodes, self.outline, self.loading.voltage)
 
     @property
     def prestretch(self) -> float:
@@ -396,7 +422,7 @@ class Scene:
         """Build and check a scene from a nested mapping (the parsed TOML)."""
         if not isinstance(data, dict):
             raise SceneError("a scene must be a table of sections")
-        known = set(cls.SECTIONS) | {"name", "description"}
+        known = set(cls.SECTIONS) | set(cls.LISTS) | {"name", "description"}
         unknown = sorted(set(data) - known)
         if unknown:
             raise SceneError(
@@ -406,6 +432,8 @@ class Scene:
         for key, section in cls.SECTIONS.items():
             if key in data:
                 kwargs[key] = section.from_dict(data[key])
+        if "electrodes" in data:
+            kwargs["electrodes"] = electrodes_from_list(data["electrodes"])
         return cls(**kwargs)
 
     def to_dict(self) -> dict[str, Any]:
@@ -413,13 +441,16 @@ class Scene:
         out: dict[str, Any] = {"name": self.name, "description": self.description}
         for key in self.SECTIONS:
             out[key] = getattr(self, key).to_dict()
+        if self.electrodes:
+            out["electrodes"] = [e.to_dict() for e in self.electrodes]
         return out
 
     def updated(self, **changes: Any) -> "Scene":
         """A checked copy with fields changed by dotted name: ``updated(**{"frame.model": "strip"})``.
 
         ``prestretch=1.3`` is short for ``loading.prestretch``; on a scene with a pair, a number
-        is a path value and moves the pair along its line (:mod:`scenes.prestretch`).
+        is a path value and moves the pair along its line (:mod:`scenes.prestretch`). An
+        electrode's field is named by the electrode: ``electrodes.left.voltage``.
         """
         data = self.to_dict()
         for key, value in changes.items():
@@ -428,15 +459,10 @@ class Scene:
                 path = self.prestretch_path
                 if not path.isotropic and isinstance(value, (int, float)) and not isinstance(value, bool):
                     value = list(path.pair(float(value)))
-            path = key.split(".")
-            node = data
-            for p in path[:-1]:
-                if p not in node or not isinstance(node[p], dict):
-                    raise SceneError(f"unknown scene section {p!r} in {key!r}")
-                node = node[p]
-            if path[-1] not in node:
+            node, last = parent_table(data, key)
+            if last not in node and not (node is data and last in self.LISTS):
                 raise SceneError(f"unknown scene field {key!r}")
-            node[path[-1]] = value
+            node[last] = value
         return Scene.from_dict(data)
 
     def base_region(self) -> tuple[float, float]:

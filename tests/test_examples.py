@@ -41,6 +41,16 @@ def test_custom_structure_example_converges(run_example, tmp_path):
     assert (tmp_path / "out/example/cable_net.vtu").exists()
 
 
+def test_electrode_example_drives_one_half(run_example):
+    printed = run_example("electrode_regions.py")
+    angle = {(label.strip(), float(v)): float(a) for label, v, a in
+             re.findall(r"^(.+?) V = +([0-9]+) V: bending angle +([0-9.-]+) deg", printed, re.M)}
+    assert len(angle) == 9 and "converged" in printed
+    dr_left, fem_left, whole = (angle[(k, 2000.0)] for k in ("DR, left driven", "FEM, left driven", "DR, whole film"))
+    assert abs(dr_left - fem_left) < 0.1
+    assert angle[("DR, left driven", 0.0)] > dr_left > whole
+
+
 def test_solve_example_curls_and_writes_a_picture(run_example, tmp_path):
     printed = run_example("solve_paper_demes.py")
     angles = [float(a) for a in re.findall(r"bending angle +([0-9.-]+) deg", printed)]

@@ -15,8 +15,9 @@ def test_docs_scenes_md_is_generated_from_the_specs():
 
 def test_every_scene_field_is_listed_with_unit_default_bounds_and_meaning():
     page = PAGE.read_text()
-    names = [f.name for f in dataclasses.fields(Scene) if f.name not in Scene.SECTIONS]
-    names += [f"{key}.{f.name}" for key, cls in Scene.SECTIONS.items() for f in dataclasses.fields(cls) if f.init]
+    tables = {**Scene.SECTIONS, **Scene.LISTS}
+    names = [f.name for f in dataclasses.fields(Scene) if f.name not in tables]
+    names += [f"{key}.{f.name}" for key, cls in tables.items() for f in dataclasses.fields(cls) if f.init]
     rows = {line.split("|")[1].strip().strip("`"): line for line in page.splitlines() if line.startswith("| `")}
     assert set(names) == set(rows)
     listed = [d for _, _, fields in docs.sections() for d in fields]

@@ -31,6 +31,7 @@ from typing import Any, Iterator, Sequence
 import scenes
 from results import Result, atomic_write_text
 from scenes import DemesError
+from scenes.electric import driven_at
 from scenes.fields import prestretch_list
 from scenes.prestretch import parse_levels
 
@@ -202,14 +203,16 @@ def cmd_actuate(args: argparse.Namespace) -> int:
         scene, lams = _prestretches(args, scene)
         scene = scene.updated(prestretch=lams[-1])
     volts = actuate.parse_voltages(args.voltage)
+    driven_at(scene, 0.0, args.electrode)  # a name the scene does not have stops here, before any solve
     out = Path(args.out)
     solvers = ("fem", "dr") if args.solver == "both" else (args.solver,)
     runs, texts = {}, []
     for solver in solvers:
-        rows = actuate.run_actuation(scene, volts, solver, out, args.refinement, not args.no_progress)
+        rows = actuate.run_actuation(scene, volts, solver, out, args.refinement, not args.no_progress,
+                                     args.electrode)
         runs[solver] = rows
         title = (f"{scene.name}: {solver.upper()} voltage sweep, frame model '{scene.frame.model}', "
-                 f"pre-stretch {scene.prestretch:g}")
+                 f"pre-stretch {scene.prestretch:g}" + (f", electrodes {', '.join(args.electrode)}" if args.electrode else ""))
         block = [actuate.table(rows, title),
                  actuate.describe(actuate.characteristics(rows), solver, volts.values[-1])]
         block += [f"  {r['status']}: {r['message']}" for r in rows if not r["converged"]]
@@ -388,6 +391,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--voltage", default="0:3000:100", help="start:stop:step or a list a,b,c in volts (default 0:3000:100)")
     p.add_argument("--solver", choices=("dr", "fem", "both"), default="fem", help="which solver (both: agreement reported)")
     p.add_argument("--refinement", type=int, help="FEM: halve the element size this many times")
+    p.add_argument("--electrode", action="append", metavar="NAME",
+                   help="drive this one of the scene's [[electrodes]] (repeat for more; default: all); "
+                        "the others hold their own voltage")
     p.set_defaults(func=cmd_actuate)
     p = sub.add_parser("calibrate", help="fit the film and frame moduli to the experiment (flat at 2.25 kV, the 0 V shape kept)")
     _common(p, "out/calibrate")

@@ -77,16 +77,17 @@ def parse_voltages(text: str) -> Voltages:
 
 
 def voltage_states(scene: Scene, solver: str, voltages: Sequence[float],
-                   refinement: int | None = None) -> Iterator[Result]:
-    """The solver's voltage sweep of ``scene`` ('fem' or 'dr')."""
+                   refinement: int | None = None, electrodes: Sequence[str] | None = None) -> Iterator[Result]:
+    """The solver's voltage sweep of ``scene`` ('fem' or 'dr'), driving the named
+    ``electrodes`` (default: all)."""
     if solver == "fem":
         from fem_reference.actuation import voltage_sweep
 
-        return voltage_sweep(scene, voltages, refinement)
+        return voltage_sweep(scene, voltages, refinement, electrodes=electrodes)
     if solver == "dr":
         import dr
 
-        return dr.voltage_sweep(scene, voltages)
+        return dr.voltage_sweep(scene, voltages, electrodes=electrodes)
     raise SceneError(f"--solver {solver!r}: use dr, fem or both")
 
 
@@ -202,8 +203,10 @@ def describe(c: Characteristics, solver: str, v_max: float) -> str:
 
 
 def run_actuation(scene: Scene, voltages: Voltages, solver: str, out_dir: str | Path,
-                  refinement: int | None = None, progress: bool = True) -> list[dict]:
-    """Run one solver's voltage sweep, writing each state as it finishes; the CSV rows."""
+                  refinement: int | None = None, progress: bool = True,
+                  electrodes: Sequence[str] | None = None) -> list[dict]:
+    """Run one solver's voltage sweep of the named ``electrodes`` (default: all), writing each
+    state as it finishes; the CSV rows."""
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     label = f"actuate_{solver}_{scene.frame.model}"
@@ -212,7 +215,7 @@ def run_actuation(scene: Scene, voltages: Voltages, solver: str, out_dir: str | 
     entries: list[tuple[float, Path]] = []
     bar = tqdm(total=len(voltages.values), desc=label, unit="V", disable=not progress, leave=False)
     try:
-        for res in voltage_states(scene, solver, voltages.values, refinement):
+        for res in voltage_states(scene, solver, voltages.values, refinement, electrodes):
             v = res.info["voltage_V"]
             name = label_of.get(v, format(Decimal(repr(v)).normalize(), "f"))
             entries.append((v, res.write_vtk(out / f"{label}_{name}V.vtu")))

@@ -36,6 +36,7 @@ import scenes
 from scenes import tomllib
 from scenes.fields import prestretch_list
 from scenes.prestretch import parse_levels
+from scenes.scene import parent_table
 
 DEFAULT_MAX_POINTS = 10_000
 """Largest grid (points, pre-stretches included) run without ``--max-points``."""
@@ -226,9 +227,8 @@ def _checked(base: scenes.Scene, changes: dict[str, Any], where: str) -> scenes.
 
 
 def _lookup(data: dict[str, Any], field: str) -> Any:
-    for part in field.split("."):
-        data = data[part]
-    return data
+    table, last = parent_table(data, field)
+    return table[last]
 
 
 def _key(solver: str, scene_data: dict[str, Any]) -> str:
