@@ -282,7 +282,7 @@ def _follow_path(scene: Scene, dm: DemesModel, x_start: np.ndarray, start: float
             step *= 0.5
             continue
         if mode is not None:
-            res = _off_saddles(scene, dm, res, runs, relax_with=relax_with, mode=mode, unstable=broke)
+            res = _off_saddles(scene, dm, res, runs, relax_with=relax_with, mode=mode, unstable=broke, polish=last)
         if not res.converged and step > st.prestretch_step:
             step = max(0.5 * step, st.prestretch_step)  # retry from the last converged state
             continue
@@ -333,7 +333,7 @@ def _lowest_mode(dm: DemesModel, res: Result, relax_with: dict) -> stability.Mod
 
 
 def _off_saddles(scene: Scene, dm: DemesModel, res: Result, runs: list[Result], *, relax_with: dict,
-                 mode: stability.Mode, unstable: bool = False) -> Result:
+                 mode: stability.Mode, unstable: bool = False, polish: bool = False) -> Result:
     """A stable equilibrium from the converged state ``res``: while its lowest
     mode (:func:`dr.stability.lowest_mode`) has a negative stiffness, step along it, apex to
     the side the scene's perturbation asks for, and relax again (each relaxation appended to
@@ -341,7 +341,8 @@ def _off_saddles(scene: Scene, dm: DemesModel, res: Result, runs: list[Result], 
     unstable (a relaxation fell off it), so any negative stiffness, even within the neutral
     band, is stepped along. The state returned, which is also put as ``runs``' last entry, carries
     ``info['saddle_steps']``, ``info['lowest_eigenvalue']`` and ``info['stable']`` (None where
-    the lowest mode was not found); a state that stays a saddle has the status 'unstable'."""
+    the lowest mode was not found); a state that stays a saddle has the status 'unstable'. With
+    ``polish``, a stable state is then moved to the discrete equilibrium (:func:`_to_equilibrium`)."""
     apex = dm.frame_nodes[scene.outline.nearest_to_apex(dm.frame_s)]
     up = np.sign(scene.perturbation.amplitude) or 1.0
     lift = dm.start - dm.model.nodes
@@ -359,7 +360,7 @@ def _off_saddles(scene: Scene, dm: DemesModel, res: Result, runs: list[Result], 
             return runs[-1]
         if checked["stable"] and not (unstable and steps == 0 and mode.eigenvalue < 0.0):
             runs[-1] = replace(res, info=checked)
-            return runs[-1]
+            return _to_equilibrium(scene, dm, runs, mode, relax_with) if polish else runs[-1]
         # from the symmetric state the saddle is, not from the drift a relaxation left along its mode
         kept = kept_by(res.x, dm.symmetries, scene.outline.side_length)
         saddle = restore(res.x, kept, dm.model.fixed)
@@ -388,6 +389,47 @@ def _off_saddles(scene: Scene, dm: DemesModel, res: Result, runs: list[Result], 
         if not res.converged:
             runs[-1] = replace(res, info={**res.info, "saddle_steps": steps})
             return runs[-1]
+
+
+def _to_equilibrium(scene: Scene, dm: DemesModel, runs: list[Result], mode: stability.Mode,
+                    relax_with: dict) -> Result:
+    """The stable state ``runs[-1]`` (lowest mode ``mode``) moved to the discrete equilibrium by
+    Newton steps K^-1 r on its assembled stiffness: each step's end is relaxed (to the
+    tolerance) and kept only where it is a stable state whose own Newton step is at most
+    half this one, up to :data:`NEWTON_STEPS` times or until the step is below
+    :data:`AT_EQUILIBRIUM` of the side. A residual tolerance stops DR r / w from the
+    equilibrium along a soft mode (w its stiffness); the Newton step removes that error where
+    the quadratic model holds, and the guard keeps the relaxed state where it does not. Kept
+    states are appended to ``runs``; ``info['newton_steps']`` counts them."""
+    res = runs[-1] = replace(runs[-1], info={**runs[-1].info, "newton_steps": 0})
+    for k in range(1, NEWTON_STEPS + 1):
+        if mode.newton_step is None:
+            break
+        length = float(np.linalg.norm(mode.newton_step, axis=1).max())
+        if length <= AT_EQUILIBRIUM * scene.outline.side_length:
+            break
+        trial = relax(dm.model, tol=scene.dr.tolerance, x_start=res.x + mode.newton_step, **relax_with)
+        if not trial.converged:
+            break
+        trial_mode = _lowest_mode(dm, trial, relax_with)
+        if stability.is_saddle(trial_mode, dm.neutral) or trial_mode.newton_step is None:
+            break
+        trial_length = float(np.linalg.norm(trial_mode.newton_step, axis=1).max())
+        if trial_length > 0.5 * length:
+            break
+        runs.append(replace(trial, info={
+            **res.info, **trial.info, "newton_steps": k, "lowest_eigenvalue": trial_mode.eigenvalue,
+            "lowest_eigenvalue_N_per_mm3": trial_mode.per_area, "newton_step_mm": trial_length}))
+        res, mode = runs[-1], trial_mode
+    return res
+
+
+NEWTON_STEPS = 3
+"""Most Newton steps from a relaxed state to the discrete equilibrium."""
+
+AT_EQUILIBRIUM = 1e-6
+"""A state whose Newton step is below this fraction of the side length is at the discrete
+equilibrium (DR and the FEM then agree to it)."""
 
 
 def _coarse_to_fine(scene: Scene, x_coarse: np.ndarray, dm: DemesModel) -> np.ndarray:

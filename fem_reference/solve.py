@@ -291,7 +291,9 @@ class Continuation:
             if nr.iterations <= 5:
                 self.step = min(1.5 * self.step, MAX_STEP)
             elif nr.iterations > 12:
-                self.step *= 0.7
+                # not below MIN_STEP: where Newton takes many iterations at any step (a soft
+                # mode near round-off) the step would otherwise shrink towards 0 and the path stall
+                self.step = max(0.7 * self.step, MIN_STEP)
         self.problem.lam = self.lam
         return Outcome(self.y, self.lam, "converged", "", records)
 

@@ -128,3 +128,22 @@ def test_a_relaxation_on_a_leash_stops_once_a_node_is_that_far_from_its_start():
     farthest = float(np.linalg.norm(leashed.x - x, axis=1).max())
     assert 0.5 * deflection < farthest < 0.75 * deflection
     assert leashed.iterations < free.iterations
+
+
+def test_a_fem_path_whose_newton_solves_are_all_slow_still_reaches_its_target(monkeypatch):
+    """The FEM's step shrinks after a slow Newton solve, but not below MIN_STEP: a path on which
+    every solve is slow (a soft mode near round-off, at any step) reaches its target in a
+    bounded number of steps instead of stalling with a vanishing step."""
+    from types import SimpleNamespace
+
+    from fem_reference.model import DemesProblem
+    from fem_reference.solve import MIN_STEP, Continuation
+
+    path = Continuation(DemesProblem(scenes.paper_demes(1.2, **{"mesh.divisions": 6}), 0, "P1"))
+    slow = SimpleNamespace(converged=True, iterations=20, history=[], status="converged", y=path.y)
+    monkeypatch.setattr(path, "solve_at", lambda lam, start, max_iterations=0: (slow, 0, None))
+    monkeypatch.setattr(path, "_flat_saddle", lambda lam: False)
+    monkeypatch.setattr(path, "_predictor", lambda lam: path.y)
+    out = path.advance(1.2)
+    assert out.status == "converged" and path.lam == 1.2
+    assert len(out.records) <= 0.2 / MIN_STEP + 20
