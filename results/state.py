@@ -46,6 +46,7 @@ SUMMARY_COLUMNS = (
     ("slack_area_fraction_full", "-"),
     ("iterations", "-"),
     ("residual", "-"),
+    ("newton_step", "mm"),
     ("wall_time", "s"),
     ("contact_checked", "-"),
     ("stable", "-"),
@@ -306,7 +307,9 @@ class Result:
     def summary(self) -> dict[str, Any]:
         """One row of scalar results, keys :data:`SUMMARY_COLUMNS` (NaN where not defined): the
         measures, the energies, the cost, and which state it is: ``stable`` and
-        ``lowest_eigenvalue`` (per unit film area; '' and NaN where not checked), ``jumps`` (the
+        ``lowest_eigenvalue`` (per unit film area; '' and NaN where not checked), ``newton_step``
+        (DR: the largest nodal length of the Newton step K^-1 r from the state to the discrete
+        equilibrium, an estimate of the stopping error; NaN where not computed), ``jumps`` (the
         path's located jumps, 'from->to' pre-stretches joined by '; ') and ``lower_state`` (a
         stable state of lower energy found from another start, in words)."""
         row: dict[str, Any] = {"prestretch": self.prestretch}
@@ -333,6 +336,7 @@ class Result:
         row.update(
             iterations=self.iterations,
             residual=self.residual,
+            newton_step=self.info.get("newton_step_mm", np.nan),
             wall_time=self.wall_time,
             contact_checked=self.info.get("contact_checked", ""),
             stable="" if self.info.get("stable") is None else bool(self.info["stable"]),
