@@ -13,6 +13,7 @@ import numpy as np
 
 from results import CellBlock
 from results.film import LATTICE_ANGLES_DEG, FilmLaw, film_fields, triangle_gradients
+from scenes.electric import electrode_coverage
 
 from .clusters import lengths as cable_lengths
 from .kernels import Packed
@@ -57,5 +58,6 @@ def film_surface(model: Model, x: np.ndarray, scene) -> CellBlock:
     of ``scene`` (the state's pre-stretch and voltage)."""
     P = model.pack()
     strains = _edge_family_strains(model, P, x) if P.clu_seg.size else None
-    fields = film_fields(triangle_gradients(model.nodes, x, model.triangles), FilmLaw.of_scene(scene, model.nodes[model.triangles]), strains)
+    film = FilmLaw.of_scene(scene, electrode_coverage(scene, model.nodes[model.triangles]))
+    fields = film_fields(triangle_gradients(model.nodes, x, model.triangles), film, strains)
     return CellBlock("triangle", model.triangles, fields)

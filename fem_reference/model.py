@@ -63,9 +63,8 @@ class DemesProblem:
         mem = scene.membrane
         self.membrane = Membrane(self.mesh.basis, mem.law, mem.E, mem.thickness, mem.tension_only, mem.gent_jm,
                                  path=scene.prestretch_path)
-        lin = self.mesh.linear
-        self.flat_corners = np.transpose(lin.p[:, lin.t], (2, 1, 0))  # (nel, 3, 2) straight triangles
-        self.electrode_cover = electrode_coverage(scene, self.flat_corners)
+        lin = self.mesh.linear  # the elements' straight triangles, (nel, 3, 2)
+        self.electrode_cover = electrode_coverage(scene, np.transpose(lin.p[:, lin.t], (2, 1, 0)))
         # at the scene's voltages; set .coefficient (film_coefficients) to change them
         self.dielectric = Dielectric(self.mesh.basis, film_coefficients(scene, self.electrode_cover))
         self.X = self.membrane.X

@@ -20,7 +20,7 @@ def membrane_fields(problem: DemesProblem, y: np.ndarray, scene: Scene) -> dict[
     xm = problem.film_positions(y)
     return {
         "strain_energy_density_N_per_mm": problem.membrane.element_energy_density(xm, problem.lam),
-        **film_fields(problem.membrane.centroid_gradient(xm), FilmLaw.of_scene(scene, problem.flat_corners)),
+        **film_fields(problem.membrane.centroid_gradient(xm), FilmLaw.of_scene(scene, problem.electrode_cover)),
     }
 
 

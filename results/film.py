@@ -83,16 +83,16 @@ class FilmLaw:
     prestretch_tensor: np.ndarray | None = None
 
     @classmethod
-    def of_scene(cls, scene: Any, corners: np.ndarray) -> "FilmLaw":
-        """The film of a ``scenes.Scene`` at its pre-stretch and voltage, over flat triangles of
-        corners (t, 3, 2+) mm (their voltage is that of the electrodes over them)."""
+    def of_scene(cls, scene: Any, cover: np.ndarray) -> "FilmLaw":
+        """The film of a ``scenes.Scene`` at its pre-stretch and voltage, over triangles whose
+        shares under the scene's electrodes are ``cover`` (t, e) (``scenes.electric.electrode_coverage``)."""
         # results must not need scenes for plain use
-        from scenes.electric import EPSILON_0, effective_voltage, electrode_coverage, mounted_thickness
+        from scenes.electric import EPSILON_0, effective_voltage, mounted_thickness
 
         m = scene.membrane
         path = scene.prestretch_path
         return cls(m.law, m.E, m.thickness, scene.prestretch, m.tension_only, m.gent_jm,
-                   EPSILON_0 * m.permittivity, effective_voltage(scene, electrode_coverage(scene, corners)),
+                   EPSILON_0 * m.permittivity, effective_voltage(scene, cover),
                    mounted_thickness(scene),
                    None if path.isotropic else path.tensor(scene.prestretch))
 

@@ -62,13 +62,18 @@ def film_coefficients(scene: Scene, cover: np.ndarray) -> np.ndarray:
     """c (N/mm) of each triangle's dielectric energy -c J^2 per unit flat area, from its
     ``cover`` (:func:`electrode_coverage`): eps0 eps_r / (2 h_m) times the sum over electrodes
     of the covered fraction times V^2."""
-    return dielectric_coefficient(scene, 1.0) * (cover @ electrode_voltages(scene) ** 2)
+    return dielectric_coefficient(scene, 1.0) * _mean_square_voltage(scene, cover)
 
 
 def effective_voltage(scene: Scene, cover: np.ndarray) -> np.ndarray:
     """Voltage (V) per triangle whose Maxwell stress on the whole triangle equals the mean over
     its area: sqrt(sum of covered fraction times V^2)."""
-    return np.sqrt(cover @ electrode_voltages(scene) ** 2)
+    return np.sqrt(_mean_square_voltage(scene, cover))
+
+
+def _mean_square_voltage(scene: Scene, cover: np.ndarray) -> np.ndarray:
+    """V^2 (V^2) per triangle averaged over its area: sum of covered fraction times V_e^2."""
+    return cover @ electrode_voltages(scene) ** 2
 
 
 def highest_voltage(scene: Scene) -> float:

@@ -433,7 +433,7 @@ class Scene:
             if key in data:
                 kwargs[key] = section.from_dict(data[key])
         if "electrodes" in data:
-            kwargs["electrodes"] = electrodes_from_list(data["electrodes"])
+            kwargs["electrodes"] = data["electrodes"]  # checked by __post_init__
         return cls(**kwargs)
 
     def to_dict(self) -> dict[str, Any]:

@@ -173,7 +173,7 @@ def test_a_fem_p2_flat_prestretched_film_has_the_closed_form_fields():
     F = pb.membrane.centroid_gradient(pb.X)
     assert F.shape == (pb.mesh.cells.shape[0], 3, 2)
     np.testing.assert_allclose(F, np.broadcast_to(np.eye(3, 2), F.shape), atol=1e-12)
-    f = film_fields(F, FilmLaw.of_scene(scene, pb.flat_corners))
+    f = film_fields(F, FilmLaw.of_scene(scene, pb.electrode_cover))
     np.testing.assert_allclose(f["cauchy_stress_1_MPa"], E / 3 * (1.3**2 - 1.3**-4), rtol=1e-10)
     np.testing.assert_allclose(f["thickness_mm"], scene.membrane.thickness, rtol=1e-12)
 
