@@ -28,3 +28,11 @@ def report(tmp_path_factory):
         os.chdir(here)
         sys.argv = argv
     return work / "reports" / "demes_paper_quick", done["files"], printed.getvalue()
+
+
+def pytest_collection_modifyitems(items):
+    """The tests that read the quick report share one worker process (``--dist loadgroup``), so
+    that the report is made once, not once in each worker."""
+    for item in items:
+        if "report" in getattr(item, "fixturenames", ()):
+            item.add_marker(pytest.mark.xdist_group("report"))

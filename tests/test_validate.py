@@ -3,6 +3,7 @@
 import csv
 import json
 import shutil
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -19,7 +20,9 @@ from validation.report.study import Study
 from validation.report.plan import MATCHED, REFERENCE, Run
 from validation.report.verdicts import Verdict
 from validation.report.runner import computation_key
-from validation.report.validate import validate, validation_plan
+from validation.report.analysis import analyse
+from validation.report.studies import scene_mesh
+from validation.report.validate import STUDIES, validate, validation_plan
 
 
 def read_csv(path):
@@ -48,7 +51,11 @@ def test_the_report_leads_with_verdicts_that_restate_its_tables(report):
     md = (out / "report.md").read_text()
     assert md.split("\n## ")[1].startswith("Verdicts")
     rows = {r["claim"]: r for r in read_csv(out / "verdicts.csv")}
-    assert len(rows) == 6 and all(r["measured"] and r["verdict"] for r in rows.values())
+    assert len(rows) == 7 and all(r["measured"] and r["verdict"] for r in rows.values())
+    scene_mesh_rows = read_csv(out / "scene_mesh.csv")
+    coarse = next(r for c, r in rows.items() if "scene's own mesh" in c)
+    all_same = all(r["same_state"] == "yes" for r in scene_mesh_rows)
+    assert (coarse["verdict"] == "holds") == all_same and coarse["verdict"].startswith(("holds", "does not hold at"))
     low_cost = next(r for c, r in rows.items() if "low-cost" in c)
     ratios = [float(r["ratio_fem_over_dr"]) for r in read_csv(out / "time_to_error.csv")
               if np.isfinite(float(r["ratio_fem_over_dr"]))]
@@ -350,3 +357,26 @@ def test_a_report_study_is_one_module_and_one_registry_line(report, tmp_path, mo
                         "verdict": "holds"}
     after = {p.parent.name: p.stat().st_mtime_ns for p in (out / "runs").glob("*/run.json")}
     assert {name: after[name] for name in before} == before and "toy_flat" in after
+
+
+def test_the_scene_mesh_check_finds_the_coarse_state_and_tells_its_mirror_image_apart(report):
+    """The quick plan's coarse mesh (8 divisions) against the scene's own (28): the paper DEMES
+    curls into the same state on both, each state is a direct FEM sweep on the scene's mesh,
+    and the same state curled the other way (its mirror image in the flat plane, another
+    branch of the same energy) is told apart at every curled level."""
+    out = report[0]
+    rows = read_csv(out / "scene_mesh.csv")
+    plan = validation_plan(quick=True)
+    assert [float(r["prestretch"]) for r in rows] == list(plan.sweep)
+    assert all(r["same_state"] == "yes" and int(r["divisions"]) == 28 for r in rows)
+    base = scenes.load("demes_paper")
+    for res in fem_reference.sweep(base.updated(**REFERENCE, **{"fem.element": "P1"}), plan.sweep, refinement=0):
+        row = next(r for r in rows if float(r["prestretch"]) == res.prestretch)
+        assert float(row["theta_scene_mesh [deg]"]) == pytest.approx(res.bending_angle, abs=1e-6)
+    a = analyse(plan, out, studies=STUDIES)
+    mirrored = {lam: replace(r, x=r.x * np.array([1.0, 1.0, -1.0])) for lam, r in a.states[scene_mesh.LABEL].items()}
+    a.states[scene_mesh.LABEL] = mirrored
+    verdict = {r["prestretch"]: (r["same_state"], r.get("relation")) for r in scene_mesh.analyse(a, out)}
+    assert verdict == {lam: (True, None) if lam == 1.0 else (False, "mirror image through the flat plane")
+                       for lam in plan.sweep}
+    assert "## The scene's own mesh" in (out / "report.md").read_text()

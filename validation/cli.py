@@ -402,7 +402,7 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("validate", help="DR against the FEM reference: shapes, energies, speed, hard cases; writes a report")
     p.add_argument("scene", nargs="?", default="demes_paper", help="scene .toml or built-in name (default: demes_paper)")
     p.add_argument("--out", help="report folder (default: reports/<scene>[_quick])")
-    p.add_argument("--quick", action="store_true", help="coarse, short study (under 2 minutes; what the tests run)")
+    p.add_argument("--quick", action="store_true", help="the study on a coarse mesh, checked against the scene's own mesh (what the tests run)")
     p.add_argument("--report-only", action="store_true",
                    help="solve nothing: rewrite the report from the runs finished in --out (unfinished ones are named)")
     _cluster_options(p)

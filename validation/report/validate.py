@@ -15,11 +15,11 @@ from . import figures
 from .analysis import Analysis, analyse
 from .plan import Plan, build_plan
 from .runner import run_plan, stale_runs
-from .studies import budget, experiment, hard_cases, second_states, speed
+from .studies import budget, experiment, hard_cases, scene_mesh, second_states, speed
 from .study import Study
 from .writing import write_report
 
-STUDIES: tuple[Study, ...] = (speed.STUDY, budget.STUDY, second_states.STUDY, hard_cases.STUDY, experiment.STUDY)
+STUDIES: tuple[Study, ...] = (scene_mesh.STUDY, speed.STUDY, budget.STUDY, second_states.STUDY, hard_cases.STUDY, experiment.STUDY)
 """The studies of ``demes validate`` beside its core comparison, in the report's order."""
 
 
