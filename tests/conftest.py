@@ -3,9 +3,12 @@ validation tests check the example's output, and the example is tested at no ext
 The environment is set in the root conftest.py."""
 
 import contextlib
+import fcntl
 import io
+import json
 import os
 import runpy
+import shutil
 import sys
 from pathlib import Path
 
@@ -16,8 +19,28 @@ EXAMPLES = Path(__file__).resolve().parent.parent / "examples"
 
 @pytest.fixture(scope="session")
 def report(tmp_path_factory):
-    """``demes validate --quick`` on the paper scene, by the example: (folder, files, printed)."""
+    """``demes validate --quick`` on the paper scene, by the example: (folder, files, printed).
+
+    Made once per test session: under pytest-xdist the first worker to ask makes it in a folder
+    the workers share (under a file lock, while the others wait), and each worker gets its own
+    copy, since some tests change the report they are given."""
+    base = tmp_path_factory.getbasetemp()
+    shared = base.parent if os.environ.get("PYTEST_XDIST_WORKER") else base
+    made = shared / "validate_example"
+    with open(shared / "validate_example.lock", "w") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)
+        if not (made / "done.json").exists():
+            made.mkdir(exist_ok=True)
+            files, printed = _run_validate_example(made)
+            (made / "done.json").write_text(json.dumps({"files": {k: str(v) for k, v in files.items()},
+                                                        "printed": printed}))
+    done = json.loads((made / "done.json").read_text())
     work = tmp_path_factory.mktemp("validate_example")
+    shutil.copytree(made, work, dirs_exist_ok=True)
+    return work / "reports" / "demes_paper_quick", done["files"], done["printed"]
+
+
+def _run_validate_example(work: Path) -> tuple[dict, str]:
     here, argv, printed = Path.cwd(), sys.argv, io.StringIO()
     os.chdir(work)
     sys.argv = ["validate_paper_demes.py"]
@@ -27,12 +50,4 @@ def report(tmp_path_factory):
     finally:
         os.chdir(here)
         sys.argv = argv
-    return work / "reports" / "demes_paper_quick", done["files"], printed.getvalue()
-
-
-def pytest_collection_modifyitems(items):
-    """The tests that read the quick report share one worker process (``--dist loadgroup``), so
-    that the report is made once, not once in each worker."""
-    for item in items:
-        if "report" in getattr(item, "fixturenames", ()):
-            item.add_marker(pytest.mark.xdist_group("report"))
+    return done["files"], printed.getvalue()
