@@ -281,3 +281,18 @@ def test_flattening_voltage_closed_form_and_sensitivities():
         assert sensitivity(scene, key) == pytest.approx(value, abs=1e-6)
     e_fit = fit_membrane_modulus(scene, 2250.0)
     assert e_fit == pytest.approx((2250.0 / hand) ** 2, rel=1e-9)
+
+
+def test_the_closed_form_flattening_voltage_refuses_an_unequal_pair_and_takes_an_equal_one():
+    """The closed form is that of an equibiaxially stretched film: an equal pair is the single
+    pre-stretch to round-off, an unequal one (whose tensions vanish at two voltages) a
+    SceneError naming loading.prestretch, before the calibration solves anything."""
+    from validation.actuation.calibrate import fit, flattening_voltage
+
+    scene = scenes.paper_demes(1.5, "strip")
+    assert flattening_voltage(scene.updated(**{"loading.prestretch": [1.5, 1.5]})) == pytest.approx(
+        flattening_voltage(scene), rel=1e-14)
+    unequal = scene.updated(**{"loading.prestretch": [1.5, 1.2]})
+    for call in (flattening_voltage, fit):
+        with pytest.raises(scenes.SceneError, match=r"loading.prestretch = \[1.5, 1.2\]"):
+            call(unequal)

@@ -20,9 +20,10 @@ from validation.report.study import Study
 from validation.report.plan import MATCHED, REFERENCE, Run
 from validation.report.verdicts import Verdict
 from validation.report.runner import computation_key
-from validation.report.analysis import analyse
+from validation.report.analysis import Analysis, analyse
 from validation.report.studies import scene_mesh
 from validation.report.validate import STUDIES, validate, validation_plan
+from validation.report.writing import _run_notes
 
 
 def read_csv(path):
@@ -380,3 +381,18 @@ def test_the_scene_mesh_check_finds_the_coarse_state_and_tells_its_mirror_image_
     assert verdict == {lam: (True, None) if lam == 1.0 else (False, "mirror image through the flat plane")
                        for lam in plan.sweep}
     assert "## The scene's own mesh" in (out / "report.md").read_text()
+
+
+def test_a_run_that_stopped_on_an_error_is_named_with_it_not_called_unfinished():
+    """A run the solver refused (its record holds the error) is reported with that error; a run
+    with no record is unfinished (interrupted or not started); complete runs are neither."""
+    plan = validation_plan(quick=True)
+    labels = [r.label for r in plan.runs]
+    error = "scene error: a voltage (1000 V) with dr.membrane_net = 'clustered'"
+    records = {label: {"complete": True, "error": None} for label in labels[2:]}
+    records[labels[0]] = {"complete": False, "error": error}
+    a = Analysis(plan, {}, records, {}, {})
+    assert a.failed == {labels[0]: error} and a.unfinished == [labels[1]]
+    sentences = _run_notes(a)
+    assert any(f"{labels[0]} ({error})" in s and "stopped on an error" in s for s in sentences)
+    assert any(s.startswith("Runs not finished") and labels[1] in s and labels[0] not in s for s in sentences)

@@ -48,7 +48,13 @@ VHB_LOCKING_STRETCH = 6.0
 
 
 def flattening_voltage(scene: Scene) -> float:
-    """Closed-form flattening voltage (V) of a scene: the zero-tension voltage of its flat film."""
+    """Closed-form flattening voltage (V) of a scene: the zero-tension voltage of its flat film,
+    pre-stretched equally in every direction (an unequal pair is a SceneError: its film's
+    tensions differ along the two axes and vanish at two voltages)."""
+    if not scene.prestretch_path.isotropic:
+        raise SceneError(f"loading.prestretch = {list(scene.loading.prestretch)}: the closed-form flattening voltage "
+                         "(and the calibration on it) is that of a film pre-stretched equally in every direction; "
+                         "give one pre-stretch")
     m = scene.membrane
     tension = flat_film_tension(m.law, m.E, m.thickness, scene.prestretch, m.gent_jm)
     return zero_tension_voltage(tension, mounted_thickness(scene), m.permittivity)
@@ -110,6 +116,7 @@ def fit(scene: Scene, refinement: int = 0, progress=print) -> tuple[Scene, Calib
     calibration (no residuals yet) and the scene's own bending angle at 0 V (deg)."""
     from fem_reference import solve
 
+    flattening_voltage(scene)  # a scene it does not hold for is refused before the solve
     base = solve(scene, refinement)
     if not base.converged:
         raise SceneError(f"the scene's own state did not converge: {base.message}")

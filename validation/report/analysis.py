@@ -63,9 +63,16 @@ class Analysis:
         return [r.label for r in self.plan.runs if self.records.get(r.label, {}).get("resolved")]
 
     @property
+    def failed(self) -> dict[str, str]:
+        """Runs of the plan that stopped on an error (a scene the solver refuses, say), with the error."""
+        return {r.label: self.records[r.label]["error"] for r in self.plan.runs
+                if self.records.get(r.label, {}).get("error")}
+
+    @property
     def unfinished(self) -> list[str]:
-        """Runs of the plan without a complete record (interrupted, or never started)."""
-        return [r.label for r in self.plan.runs if not self.records.get(r.label, {}).get("complete")]
+        """Runs of the plan without a complete record and without an error (interrupted, or never started)."""
+        return [r.label for r in self.plan.runs
+                if not self.records.get(r.label, {}).get("complete") and r.label not in self.failed]
 
 
 def analyse(plan: Plan, out_dir: Path, *, studies: Sequence[Study] = ()) -> Analysis:

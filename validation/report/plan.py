@@ -155,12 +155,6 @@ def reference_runs(s: Settings) -> list[Run]:
             for k in s.levels]
 
 
-
-
-
-
-
-
 def drconv_runs(s: Settings) -> list[Run]:
     """DR's own refinement over the whole sweep: its limit beside the FEM's at every pre-stretch.
     A third level (40 divisions: 5 min a state) runs only at the speed study's pre-stretch,

@@ -147,7 +147,7 @@ def _findings(a: Analysis) -> list[str]:
 
 
 def _run_notes(a: Analysis) -> list[str]:
-    """Sentences on runs solved again, stale or unfinished (the report's last findings)."""
+    """Sentences on runs solved again, stale, stopped on an error or unfinished (the report's last findings)."""
     out = []
     if a.resolved:
         out.append(f"Runs solved again because the states on disk were made with another scene, settings or "
@@ -155,6 +155,9 @@ def _run_notes(a: Analysis) -> list[str]:
     if a.stale:
         out.append(f"Runs made with another scene, settings or code version than this report's (shown as they "
                    f"are; run without --report-only to solve them again): {', '.join(a.stale)}.")
+    if a.failed:
+        out.append("Runs that stopped on an error (their states are left out): "
+                   + "; ".join(f"{label} ({error})" for label, error in a.failed.items()) + ".")
     if a.unfinished:
         out.append(f"Runs not finished when this report was written (their missing states are left out): "
                    f"{', '.join(a.unfinished)}.")

@@ -129,9 +129,11 @@ def analyse(a: Any, out_dir: Path) -> Experiment | None:
         ex.sweeps[run.label] = rows
         c = characteristics(rows)
         fit_file = run_dir / CALIBRATION
+        scene = states[0].scene
+        closed_form = flattening_voltage(scene) if scene.prestretch_path.isotropic else np.nan  # none for a pair
         summary = {"run": run.label, "model": run.title, "theta0": c.theta0,
                    "stroke_at_1kV": c.stroke_at_1kV, "flat_voltage": c.flat_voltage,
-                   "flat_closed_form": flattening_voltage(states[0].scene), "pull_in_voltage": c.pull_in_voltage,
+                   "flat_closed_form": closed_form, "pull_in_voltage": c.pull_in_voltage,
                    "steep_stroke": c.steep_stroke, "membrane_E": states[0].scene.membrane.E,
                    "frame_E": states[0].scene.frame.E, "end": f"{rows[-1]['status']} at {rows[-1]['voltage']:.0f} V"}
         if fit_file.exists():
