@@ -1,6 +1,8 @@
 """Continuation in pre-stretch from the flat state, stability checks, and the ``Result`` of a state.
 
-Path: lambda = 1 is the flat, stress-free state. Each continuation step raises lambda by at most
+Path: lambda = 1 is the flat, stress-free state at 0 V; with a voltage on, the Maxwell stress
+compresses the unstretched film and its state there is solved from the lifted start like any
+other (the film buckles). Each continuation step raises lambda by at most
 ``MAX_STEP`` and solves by Newton from a tangent predictor, K dy/dlambda = -dg/dlambda at the
 last state (a secant where that tangent cannot be factorised; the first step from the flat
 state); a failed step is halved, and where the branch ends (a limit point) a long Newton solve
@@ -25,6 +27,7 @@ from results import Result
 from results.crossing import Crossing, film_crossing
 from results.path import AFTER_EVENT, LOCATE, jumped, largest_move, neutral_stiffness, planar, side_of_mode, turned
 from scenes import Scene, SceneError
+from scenes.electric import highest_voltage
 from scenes.fields import integer_at_least, prestretch_list
 
 from .contact import Contact, frame_contact, membrane_fold
@@ -67,6 +70,26 @@ class Continuation:
         self.up = np.sign(self.scene.perturbation.amplitude) or 1.0  # + : apex up
         centroids = problem.X[problem.mesh.cells[:, :3], :2].mean(axis=1)
         self.band = self.scene.outline.distance(centroids) < self.scene.frame.lever
+        self.start_records: list[StepRecord] = []  # the Newton solve of the state at lambda = 1, if any
+        self.start_failure: Outcome | None = None
+        self.stress_free_start = highest_voltage(self.scene) == 0.0
+        if not self.stress_free_start:
+            self._solve_start()
+
+    def _solve_start(self) -> None:
+        """With a voltage on, the film at lambda = 1 is not stress-free: the Maxwell stress
+        compresses it, the flat state is no equilibrium and the film buckles. Its state is solved
+        as any other (pushes off saddles included), from the lifted start, so that the lift
+        chooses the side it buckles to; where that fails, the path stops there."""
+        nr, pushes, _ = self.solve_at(1.0, self.problem.initial_guess())
+        self.start_records = [StepRecord(1.0, nr.iterations, nr.history, pushes)]
+        if nr.converged:
+            self.y = nr.y
+            return
+        self.start_failure = Outcome(self.y, 1.0, "diverged" if nr.status == "line_search" else nr.status,
+                                     f"the state at lambda = 1 with the voltage on (the film compressed by its "
+                                     f"Maxwell stress) was not found: Newton {nr.status}, residual {nr.residual:.2e} "
+                                     f"after {nr.iterations} iterations", self.start_records)
 
     # ------------------------------------------------------------------ one state
     def _flat_saddle(self, lam: float) -> bool:
@@ -164,7 +187,7 @@ class Continuation:
 
     # ------------------------------------------------------------------ the path
     def _predictor(self, lam: float) -> np.ndarray:
-        if self.lam == 1.0:  # the flat state, left along its lowest mode where it is a saddle
+        if self.lam == 1.0 and self.stress_free_start:  # left along its lowest mode where it is a saddle
             return self.problem.initial_guess(lift=False)
         tangent = self._path_tangent()
         if tangent is not None:
@@ -218,7 +241,9 @@ class Continuation:
         A ``guess`` of the state at ``target`` (e.g. from a coarser mesh) is tried first; if it
         does not lead to a stable, contact-free equilibrium the path is stepped as usual.
         """
-        records: list[StepRecord] = []
+        if self.start_failure is not None:
+            return self.start_failure
+        records, self.start_records = self.start_records, []
         if guess is not None and target > self.lam:
             nr, pushes, _ = self.solve_at(target, guess)
             records.append(StepRecord(target, nr.iterations, nr.history, pushes))

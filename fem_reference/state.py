@@ -10,6 +10,7 @@ import numpy as np
 from results import ENERGY_KEYS, Result
 from results.path import jumps_message, neutral_stiffness
 from scenes import Scene
+from scenes.electric import highest_voltage
 
 from .model import DemesProblem, Evaluation
 from .newton import NotFactorizable
@@ -82,8 +83,9 @@ def make_result(problem: DemesProblem, out: Outcome, requested: float, wall: flo
     residual = _relative_residual(problem, ev, lam)
     stability = _stability(problem, out)
     iterations = sum(r.iterations for r in out.records)
-    compressed = compressed_fraction(problem, out.y) if lam > 1.0 else 0.0
-    slack = slack_fractions(problem, out.y) if lam > 1.0 else (0.0, 0.0)
+    flat = stress_free(scene, lam)
+    compressed = 0.0 if flat else compressed_fraction(problem, out.y)
+    slack = (0.0, 0.0) if flat else slack_fractions(problem, out.y)
     status, converged, message = _status_and_message(scene, out, requested, residual, iterations, stability,
                                                      compressed)
     mesh = problem.mesh
@@ -120,23 +122,30 @@ def _energy(ev: Evaluation) -> dict[str, float]:
     return energy
 
 
+def stress_free(scene: Scene, lam: float) -> bool:
+    """Whether the state at pre-stretch ``lam`` is the flat, stress-free film: no pre-stretch and
+    no voltage (with a voltage on, the Maxwell stress compresses the film at lambda = 1)."""
+    return lam == 1.0 and highest_voltage(scene) == 0.0
+
+
 def _relative_residual(problem: DemesProblem, ev: Evaluation, lam: float) -> float:
-    """Largest free nodal force over the force scale (0 at the flat state)."""
+    """Largest free nodal force over the force scale (0 at the flat, stress-free state)."""
     residual = ev.gradient[problem.free]
-    return float(np.abs(residual).max() / ev.force_scale) if lam > 1.0 else 0.0
+    return 0.0 if stress_free(problem.scene, lam) else float(np.abs(residual).max() / ev.force_scale)
 
 
 def _stability(problem: DemesProblem, out: Outcome) -> Stability:
-    """The lowest eigenvalue of a converged curled state, and its stability (the flat state is
-    stable by definition; a tangent that cannot be factorised leaves it unknown: unstable)."""
+    """The lowest eigenvalue of a converged state, and its stability (the flat, stress-free state
+    is stable by definition; a tangent that cannot be factorised leaves it unknown: unstable)."""
     lam = out.prestretch
+    flat = stress_free(problem.scene, lam)
     omega = float("nan")
-    if lam > 1.0:
+    if not flat:
         try:
             omega = lowest_free_mode(problem, out.y)[0] if out.converged else float("nan")
         except NotFactorizable:
             pass
-    stable = bool(omega > -neutral_stiffness(problem.scene)) if np.isfinite(omega) else lam == 1.0
+    stable = bool(omega > -neutral_stiffness(problem.scene)) if np.isfinite(omega) else flat
     return Stability(omega, stable)
 
 
@@ -152,7 +161,7 @@ def _status_and_message(scene: Scene, out: Outcome, requested: float, residual: 
         message += f"; {out.detail}"
     if converged:
         message += (f"; {'stable' if stability.stable else 'UNSTABLE'} (lowest eigenvalue {stability.omega:.3g} N/mm^3)"
-                    if lam > 1.0 else "; the flat state")
+                    if not stress_free(scene, lam) else "; the flat state")
     if scene.membrane.law != "linear" and compressed > 0.01:
         status, converged = "compression", False
         message += (f"; the {scene.membrane.law} film is in compression over {100 * compressed:.1f} % of its "

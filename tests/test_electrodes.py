@@ -12,6 +12,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 import dr
+import fem_reference
 import scenes
 from dr.demes_model import build
 from fem_reference.actuation import voltage_sweep as fem_voltage_sweep
@@ -153,3 +154,24 @@ def test_actuate_names_an_unknown_electrode(scene, tmp_path, capsys):
     assert code == 2
     err = capsys.readouterr().err
     assert "--electrode middle" in err and "Traceback" not in err
+
+
+def test_the_fem_solves_the_state_at_no_pre_stretch_with_a_voltage_on_instead_of_taking_the_flat_one():
+    """Without pre-stretch the flat film is stress-free only at 0 V: with a voltage on, its
+    Maxwell stress compresses it, the flat state is no equilibrium (a force remains) and the
+    film buckles. The FEM path solves that state: a stable equilibrium of lower energy than the
+    flat film's, said to be one; at 0 V the state at lambda = 1 stays the flat one."""
+    from fem_reference.model import DemesProblem
+
+    base = scenes.load("demes_paper").updated(**{"mesh.divisions": 6, "fem.element": "P1", "frame.model": "strip"})
+    flat_state = next(fem_reference.sweep(base, [1.0]))
+    assert flat_state.converged and "the flat state" in flat_state.message and not np.any(flat_state.x[:, 2])
+    driven = base.updated(**{"loading.voltage": 1000.0})
+    problem = DemesProblem(driven, 0, "P1")
+    problem.lam = 1.0
+    flat = problem.initial_guess(lift=False)
+    assert np.abs(problem.evaluate(flat, 1).gradient[problem.free]).max() > 1e-4  # N: no equilibrium
+    state = next(fem_reference.sweep(driven, [1.0]))
+    assert state.converged and state.info["stable"] and "the flat state" not in state.message
+    assert state.residual < 1e-8
+    assert problem.energy(state.x.reshape(-1)) < problem.energy(flat)
