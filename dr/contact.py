@@ -41,9 +41,41 @@ def _segment_distance(p1, q1, p2, q2):
 
 
 @njit(cache=True, error_model="numpy")
-def closest_segments(x, seg, closed):
-    """Closest pair of non-neighbouring segments of a chain: (distance, a, b)."""
-    return closest_pair(x, seg, all_pairs(seg.shape[0], closed))
+def closest_segments(x, seg, closed, distance):
+    """Closest pair of segments of a chain that may touch (:func:`may_touch`): (distance, a, b)."""
+    return closest_pair(x, seg, all_pairs(seg.shape[0], closed), closed, distance)
+
+
+@njit(cache=True, error_model="numpy")
+def arc_starts(x, seg):
+    """(k + 1,) mm: the chain's arc length at the start of each of its k segments, then its length."""
+    start = np.zeros(seg.shape[0] + 1)
+    for a in range(seg.shape[0]):
+        d = x[seg[a, 1]] - x[seg[a, 0]]
+        start[a + 1] = start[a] + math.sqrt(d @ d)
+    return start
+
+
+@njit(cache=True, error_model="numpy")
+def may_touch(x, seg, start, a, b, closed, distance):
+    """Whether segments a < b of a chain (``start``: :func:`arc_starts`) can touch at
+    ``distance`` mm rather than being the rod's own chord: not neighbours, and either at least
+    pi/2 ``distance`` of chain between them (either way round a closed one: closer, the
+    centreline must turn back through more than a half circle of that diameter to bring them
+    within it) or facing each other (their directions more than 90 deg apart: the chain
+    folded back between them). Without the arc-length rule a segment shorter than the contact
+    distance, where two landmarks of an outline lie close, touches its neighbours' neighbours
+    on a straight frame."""
+    if b < a + 2 or (closed and a == 0 and b == seg.shape[0] - 1):
+        return False
+    between = start[b] - start[a + 1]
+    if closed:
+        between = min(between, start[-1] - (start[b + 1] - start[a]))
+    if between >= 0.5 * math.pi * distance:
+        return True
+    ta = x[seg[a, 1]] - x[seg[a, 0]]
+    tb = x[seg[b, 1]] - x[seg[b, 0]]
+    return ta @ tb < 0.0
 
 
 @njit(cache=True, error_model="numpy")
@@ -60,11 +92,14 @@ def all_pairs(k, closed):
 
 
 @njit(cache=True, error_model="numpy")
-def closest_pair(x, seg, pairs):
-    """Closest of the given segment pairs: (distance, a, b)."""
+def closest_pair(x, seg, pairs, closed, distance):
+    """Closest of the given segment pairs that may touch at ``distance`` (:func:`may_touch`): (distance, a, b)."""
+    start = arc_starts(x, seg)
     best, ba, bb = np.inf, -1, -1
     for p in range(pairs.shape[0]):
         a, b = pairs[p, 0], pairs[p, 1]
+        if not may_touch(x, seg, start, a, b, closed, distance):
+            continue
         d = _segment_distance(x[seg[a, 0]], x[seg[a, 1]], x[seg[b, 0]], x[seg[b, 1]])
         if d < best:
             best, ba, bb = d, a, b
@@ -73,7 +108,8 @@ def closest_pair(x, seg, pairs):
 
 @njit(cache=True, error_model="numpy")
 def pairs_within(x, seg, closed, reach):
-    """Non-neighbouring segment pairs closer than ``reach``: the candidates of a Verlet list.
+    """Non-neighbouring segment pairs closer than ``reach``: the candidates of a Verlet list
+    (which of them may touch is decided when they are checked, :func:`closest_pair`).
 
     A cheap sphere test (midpoint distance minus half lengths) skips most pairs."""
     k = seg.shape[0]
@@ -126,7 +162,7 @@ def most_shrunk(x, edges, rest):
 
 
 class FrameContact:
-    """Stops when two non-neighbouring frame segments come closer than ``distance`` mm.
+    """Stops when two frame segments that may touch (:func:`may_touch`) come closer than ``distance`` mm.
 
     Parameters
     ----------
@@ -145,7 +181,7 @@ class FrameContact:
         self.distance = float(distance)
 
     def __call__(self, x: np.ndarray) -> str | None:
-        d, a, b = closest_segments(x, self.segments, self.closed)
+        d, a, b = closest_segments(x, self.segments, self.closed, self.distance)
         if d >= self.distance:
             return None
         i, j = self.segments[a, 0], self.segments[b, 0]

@@ -372,6 +372,6 @@ def run(st, P, cfg, fm):
             if moved_list > skin:
                 moved_list = 0.0
                 candidates = pairs_within(X, segments, cfg.closed, contact_distance + 2.0 * skin)
-            if closest_pair(X, segments, candidates)[0] < contact_distance:
+            if closest_pair(X, segments, candidates, cfg.closed, contact_distance)[0] < contact_distance:
                 return CONTACT, steps, restarts, fmax, rmax
     return STEPS_DONE, steps, restarts, fmax, rmax

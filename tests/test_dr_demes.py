@@ -119,6 +119,20 @@ def test_frame_contact_check_sees_two_segments_meet():
     assert check(x) is None
 
 
+def test_a_segment_shorter_than_the_contact_distance_is_not_contact_but_a_fold_back_is():
+    """A straight frame with a 0.05 mm segment (two landmarks of an outline close together):
+    its neighbours are 0.05 mm apart, under the 0.1 mm contact distance, but the frame is
+    straight, no contact; the same chain folded back at that segment (a hairpin) is contact.
+    A closed chain is checked round its end too."""
+    straight = np.array([[0, 0, 0], [10, 0, 0], [10.05, 0, 0], [20, 0, 0]], float)
+    check = dr.FrameContact(np.arange(4), distance=0.1, closed=False)
+    assert check(straight) is None
+    hairpin = np.array([[0, 0, 0], [10, 0, 0], [10, 0.05, 0], [0, 0.05, 0]], float)
+    assert check(hairpin) is not None
+    square = np.array([[0, 0, 0], [10, 0, 0], [10, 10, 0], [0, 10, 0], [0, 0.05, 0]], float)
+    assert dr.FrameContact(np.arange(5), distance=0.1)(square) is None  # 0.05 mm segment at the closure
+
+
 def test_state_writes_vtk_that_pyvista_reads(tmp_path):
     res = dr.solve(scenes.paper_demes(1.2, "strip", **COARSE))
     path = res.write_vtk(tmp_path / "state.vtu")
