@@ -27,14 +27,13 @@ from results import Result
 from results.crossing import Crossing, film_crossing
 from results.path import AFTER_EVENT, LOCATE, jumped, largest_move, neutral_stiffness, planar, side_of_mode, turned
 from scenes import Scene, SceneError
-from scenes.electric import highest_voltage
 from scenes.fields import integer_at_least, prestretch_list
 
 from .contact import Contact, frame_contact, membrane_fold
 from .model import DemesProblem
 from .newton import NewtonResult, NotFactorizable, factorisation_count, newton, positive_shift, shift_scale
 from .stability import lowest_free_mode
-from .state import Outcome, StepRecord, make_result
+from .state import Outcome, StepRecord, make_result, stress_free
 
 FIRST_STEP = 0.01
 MAX_STEP = 0.05
@@ -72,7 +71,7 @@ class Continuation:
         self.band = self.scene.outline.distance(centroids) < self.scene.frame.lever
         self.start_records: list[StepRecord] = []  # the Newton solve of the state at lambda = 1, if any
         self.start_failure: Outcome | None = None
-        self.stress_free_start = highest_voltage(self.scene) == 0.0
+        self.stress_free_start = stress_free(self.scene, 1.0)
         if not self.stress_free_start:
             self._solve_start()
 

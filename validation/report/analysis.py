@@ -71,8 +71,9 @@ class Analysis:
     @property
     def unfinished(self) -> list[str]:
         """Runs of the plan without a complete record and without an error (interrupted, or never started)."""
+        failed = self.failed
         return [r.label for r in self.plan.runs
-                if not self.records.get(r.label, {}).get("complete") and r.label not in self.failed]
+                if not self.records.get(r.label, {}).get("complete") and r.label not in failed]
 
 
 def analyse(plan: Plan, out_dir: Path, *, studies: Sequence[Study] = ()) -> Analysis:

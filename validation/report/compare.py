@@ -79,7 +79,12 @@ def build_reference(levels: Sequence[int], states: Sequence[Result]) -> Referenc
 
 def curve_distance(x: Reference, y: Reference) -> float:
     """RMS distance of two extrapolated frame curves, / side length."""
-    return float(np.sqrt(np.mean(np.sum((x.curve - y.curve) ** 2, axis=1))) / y.side)
+    return frame_distance(x.curve, y)
+
+
+def frame_distance(curve: np.ndarray, ref: Reference) -> float:
+    """RMS distance (/side) of a frame curve at the reference's arc lengths (CURVE_SAMPLES, 3) to the reference's."""
+    return float(np.sqrt(np.mean(np.sum((curve - ref.curve) ** 2, axis=1))) / ref.side)
 
 
 def state_difference(x: Result | None, y: Result | None) -> tuple[float, float]:

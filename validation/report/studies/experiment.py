@@ -134,8 +134,8 @@ def analyse(a: Any, out_dir: Path) -> Experiment | None:
         summary = {"run": run.label, "model": run.title, "theta0": c.theta0,
                    "stroke_at_1kV": c.stroke_at_1kV, "flat_voltage": c.flat_voltage,
                    "flat_closed_form": closed_form, "pull_in_voltage": c.pull_in_voltage,
-                   "steep_stroke": c.steep_stroke, "membrane_E": states[0].scene.membrane.E,
-                   "frame_E": states[0].scene.frame.E, "end": f"{rows[-1]['status']} at {rows[-1]['voltage']:.0f} V"}
+                   "steep_stroke": c.steep_stroke, "membrane_E": scene.membrane.E,
+                   "frame_E": scene.frame.E, "end": f"{rows[-1]['status']} at {rows[-1]['voltage']:.0f} V"}
         if fit_file.exists():
             data = json.loads(fit_file.read_text())
             data["calibration"]["residuals"] = residuals(c, data["theta_target"])

@@ -21,7 +21,7 @@ import numpy as np
 from results import level_label
 
 from ...common.document import Section, Table
-from ..compare import CURVE_SAMPLES
+from ..compare import CURVE_SAMPLES, frame_distance
 from ..plan import REFERENCE, Run, Settings
 from ..study import Study
 from ..verdicts import Verdict
@@ -39,11 +39,6 @@ def runs(s: Settings) -> list[Run]:
         return []
     return [Run(LABEL, "fem", {**REFERENCE, "fem.element": s.element}, s.sweep, group=GROUP,
                 title=f"FEM reference, strip frame, {s.element}, the scene's own mesh")]
-
-
-def _distance(curve: np.ndarray, ref: Any) -> float:
-    """RMS distance (/side) of a frame curve at the reference's arc lengths to the reference's."""
-    return float(np.sqrt(np.mean(np.sum((curve - ref.curve) ** 2, axis=1))) / ref.side)
 
 
 def _twins(curve: np.ndarray) -> dict[str, np.ndarray]:
@@ -73,13 +68,13 @@ def analyse(a: Any, out_dir: Path) -> list[dict[str, Any]] | None:
             row.update(theta_scene_mesh=found.bending_angle, branch=found.info.get("branch", ""),
                        divisions=found.scene.mesh.divisions)
         if ref is not None and found is not None and found.converged:
-            spread = max(_distance(a.states[f"fem_r{k}"][lam].frame_curve(CURVE_SAMPLES), ref) for k in ref.levels)
+            spread = max(frame_distance(a.states[f"fem_r{k}"][lam].frame_curve(CURVE_SAMPLES), ref) for k in ref.levels)
             curve = found.frame_curve(CURVE_SAMPLES)
-            row.update(distance=_distance(curve, ref), allowed=spread + ref.shape_uncertainty + ROUND_OFF)
+            row.update(distance=frame_distance(curve, ref), allowed=spread + ref.shape_uncertainty + ROUND_OFF)
             row["same_state"] = bool(row["distance"] <= row["allowed"])
             if not row["same_state"]:
                 row["relation"] = next((name for name, twin in _twins(curve).items()
-                                        if _distance(twin, ref) <= row["allowed"]), "another state")
+                                        if frame_distance(twin, ref) <= row["allowed"]), "another state")
         rows.append(row)
     return rows
 
