@@ -10,7 +10,7 @@ from typing import Iterator, Sequence
 
 import numpy as np
 
-from results import Result
+from results import CellBlock, Result
 from results.path import (AFTER_EVENT, LOCATE, jump_distance, jumped, jumps_message, largest_move, planar,
                           side_of_mode, turned)
 from scenes import Scene
@@ -182,7 +182,8 @@ def _path_result(scene: Scene, dm: DemesModel, runs: PathRuns, *, requested: flo
     res = replace(
         last, iterations=runs.iterations, wall_time=runs.wall_time, residual_history=runs.history(),
         scene=state_scene, prestretch=reached, frame_nodes=dm.frame_nodes, frame_s=dm.frame_s, message=message,
-        blocks={**last.blocks, "membrane_surface": film_surface(dm.model, last.x, state_scene)}, info=info,
+        blocks={**last.blocks, "membrane_surface": film_surface(dm.model, last.x, state_scene), **_members(dm)},
+        info=info,
     )
     res.check_crossings(dm.model.triangles, contact_checked=scene.dr.check_contact)
     return res
@@ -451,6 +452,13 @@ def _ramp(start: float, stop: float, step: float) -> list[float]:
     # the last level is ``stop`` itself, bit for bit: results are keyed by it; the others are
     # rounded off the float noise of the division (1.2, not 1.2000000000000002)
     return [round(start + (stop - start) * k / n, 12) for k in range(1, n)] + [float(stop)]
+
+
+def _members(dm: DemesModel) -> dict[str, CellBlock]:
+    """The cross-members' edges as their own VTK block (their links are in the frame's too)."""
+    if not dm.members:
+        return {}
+    return {"members": CellBlock("line", np.vstack([np.column_stack([c[:-1], c[1:]]) for c in dm.members]))}
 
 
 def sweep(scene: Scene, prestretches: Sequence[float], progress: bool = False,

@@ -13,7 +13,7 @@ from results.path import neutral_stiffness
 from scenes import Scene, SceneError
 from scenes.electric import electrode_coverage, film_coefficients, highest_voltage
 from scenes.fields import prestretch_value
-from scenes.mesh import membrane_mesh
+from scenes.mesh import member_joints, membrane_mesh
 
 from .contact import FilmCrossing, FrameContact, MembraneFold
 from .model import Model
@@ -37,6 +37,7 @@ class DemesModel:
     spacing: float  # mm
     neutral: float  # N/mm^3, results.path.neutral_stiffness
     symmetries: list[Symmetry]  # the model's (dr.symmetry.model_symmetries)
+    members: tuple[np.ndarray, ...] = ()  # node ids along each cross-member (scenes.mesh.TriangleMesh.members)
 
 
 def check_voltage_net(scene: Scene, voltage: float) -> None:
@@ -96,6 +97,10 @@ def _build(scene: Scene, lam: float) -> DemesModel:
                          "reference only; set frame.film_offset = false for DR")
     if scene.dr.membrane_net == "triangles":
         return _build_triangles(scene, lam)
+    if scene.frame.members:
+        raise SceneError(f"frame.members (a frame with windows) is modelled on the scene's triangle mesh: set "
+                         f"dr.membrane_net = \"triangles\" (the paper's {scene.dr.membrane_net} net has no "
+                         "member lines)")
     if scene.membrane.law != "linear":
         raise SceneError(
             f"membrane.law = {scene.membrane.law!r}: the DR net models the 'linear' (Hookean cable) "
@@ -175,6 +180,12 @@ def _build_triangles(scene: Scene, lam: float) -> DemesModel:
     m.add_rod(mesh.frame_nodes, EA=frame.EA, EI=frame.EI, closed=True,
               EI_strong=frame.EI_strong if strip else None, GJ=frame.GJ if strip else None,
               bond=mesh.bond_nodes if strip else None)
+    for chain, bonds in zip(mesh.members, mesh.member_bonds):
+        m.add_rod(chain, EA=frame.EA, EI=frame.EI, EI_strong=frame.EI_strong if strip else None,
+                  GJ=frame.GJ if strip else None, bond=bonds if strip else None)
+    for chain, bonds in member_joints(mesh.frame_nodes, mesh.bond_nodes, mesh.members, mesh.member_bonds):
+        m.add_rod(chain, EA=0.0, EI=frame.joint_EI, EI_strong=frame.EI_strong if strip else None,
+                  GJ=frame.joint_EI if strip else None, bond=bonds if strip else None)
     m.add_dielectric(mesh.triangles, film_coefficients(scene, electrode_coverage(scene, nodes[mesh.triangles])))
     start = nodes.copy()
     start[:, 2] += np.where(m.fixed[:, 2], 0.0, scene.initial_lift(nodes[:, :2]))
@@ -185,7 +196,7 @@ def _build_triangles(scene: Scene, lam: float) -> DemesModel:
     mirror = _mirror_map(nodes)
     return DemesModel(m, None, start, contact, final_checks, mirror, cable_area(scene, mesh.spacing),
                       mesh.frame_nodes, mesh.frame_s, mesh.spacing, neutral_stiffness(scene),
-                      model_symmetries(m, mirror))
+                      model_symmetries(m, mirror), mesh.members)
 
 
 def _mirror_map(nodes: np.ndarray) -> np.ndarray | None:

@@ -68,7 +68,8 @@ class Methods:
         With ``EI_strong`` and ``GJ`` it is the strip (weak-axis EI, strong-axis, torsion; its
         plane set by ``bond``, one bond node per chain node); otherwise the isotropic rod.
         Edges whose two ends are supported on all axes keep their flat frame. ``EA`` adds an
-        axial link per edge (role 'frame'). Units: N mm^2, N.
+        axial link per edge (role 'frame'); ``EA = 0`` adds none (a joint between rods whose
+        edges have their links already). Units: N mm^2, N.
         """
         c = self.node_indices("rod chain", chain)
         if c.size < 3:
@@ -84,7 +85,8 @@ class Methods:
             positive("rod GJ (N mm^2)", GJ)
         self.stored[Fields].append(Rod(c, b, positive("rod EI (N mm^2)", EI), EI_strong, GJ, bool(closed)))
         n_edges = c.size if closed else c.size - 1
-        self.add_link(c[:n_edges], np.roll(c, -1)[:n_edges], positive("rod EA (N)", EA), role="frame")
+        if EA != 0:
+            self.add_link(c[:n_edges], np.roll(c, -1)[:n_edges], positive("rod EA (N)", EA), role="frame")
 
 
 def pack(model, rest) -> Fields:

@@ -14,7 +14,7 @@ import scipy.sparse as sp
 from skfem import Basis, ElementTriP1, ElementTriP2, ElementVector, MeshTri1, MeshTri2
 
 from scenes import Scene, SceneError
-from scenes.mesh import locate, mid_arc_length, membrane_mesh
+from scenes.mesh import chain_with_midpoints, locate, mid_arc_length, membrane_mesh
 
 from .errors import FEMError
 
@@ -46,6 +46,10 @@ class MembraneMesh:
         Boundary node spacing along the outline, mm (vertex to vertex).
     cells, cell_type
         VTK connectivity of the elements ('triangle' or 'triangle6') in node numbers.
+    members, member_inner
+        For each of ``frame.members``, the nodes on its centreline from its start to its end
+        (with P2 the edge nodes between the vertices), and (m, 2) their points on the member's
+        bond line (``scenes.mesh.TriangleMesh.member_bonds``), mm.
     """
 
     mesh: MeshTri1
@@ -59,6 +63,8 @@ class MembraneMesh:
     spacing: float
     cells: np.ndarray
     cell_type: str
+    members: tuple[np.ndarray, ...] = ()
+    member_inner: tuple[np.ndarray, ...] = ()
 
     @property
     def n_nodes(self) -> int:
@@ -127,6 +133,8 @@ def build_mesh(scene: Scene, refinement: int = 0, element: str = "P1") -> Membra
                        "or mesh.divisions")
     b_vert, nodes_s, nodes_inner = shared.frame_nodes, shared.frame_s, shared.frame_bond
     nv = mesh.p.shape[1]
+    members = shared.members
+    member_inner = tuple(shared.nodes[b] for b in shared.member_bonds)
     if element == "P2":
         s_of = np.full(nv, np.nan)
         s_of[b_vert] = nodes_s
@@ -142,6 +150,9 @@ def build_mesh(scene: Scene, refinement: int = 0, element: str = "P1") -> Membra
         b_vert = np.concatenate([b_vert, nv + facets])
         nodes_s = np.concatenate([nodes_s, s_mid])
         nodes_inner = np.vstack([nodes_inner, 0.5 * (inner_of[a] + inner_of[b])])
+        edge_node = {(int(i), int(j)): nv + f for f, (i, j) in enumerate(np.sort(quad.facets, axis=0).T)}
+        members = tuple(chain_with_midpoints(c, edge_node) for c in members)
+        member_inner = tuple(np.insert(p, np.arange(1, len(p)), 0.5 * (p[:-1] + p[1:]), axis=0) for p in member_inner)
         t2f = linear.t2f  # local edges (0-1, 1-2, 0-2): VTK triangle6 order
         cells = np.vstack([linear.t, nv + t2f]).T
         cell_type = "triangle6"
@@ -167,4 +178,6 @@ def build_mesh(scene: Scene, refinement: int = 0, element: str = "P1") -> Membra
         spacing=shared.spacing,
         cells=cells,
         cell_type=cell_type,
+        members=tuple(np.asarray(c, np.int64) for c in members),
+        member_inner=member_inner,
     )

@@ -21,6 +21,7 @@ from scenes.electric import electrode_coverage, film_coefficients
 
 from .frame import Rod, RodProperties, StencilTerms, scatter
 from .dielectric import Dielectric
+from .members import member_rods
 from .membrane import Membrane
 from .mesh import MembraneMesh, build_mesh
 from .rod_kernels import Jets
@@ -86,6 +87,7 @@ class DemesProblem:
         props = RodProperties(fr.model, fr.EA, fr.EI, fr.EI_strong, fr.GJ)
         self.rod = Rod(self.X, chain, True, held, props, self._directors(),
                        self.offset)
+        self.member_rods = member_rods(scene, self.mesh, self.X, held)
         self.offset_nodes = np.flatnonzero(~held_chain)  # chain positions moved by the offset
         self.mass = mass_form.assemble(self.mesh.basis).tocsr()
 
@@ -134,8 +136,8 @@ class DemesProblem:
         """Total energy (N mm) at positions y (3 nn,)."""
         x = y.reshape(-1, 3)
         xm, _, _ = self._film_positions(x, order=0)
-        rod = self.rod.evaluate(x, order=0)[0]
-        return self.membrane.energy(xm, self.lam) + self.dielectric.energy(xm) + sum(rod.values())
+        rod = sum(sum(r.evaluate(x, order=0)[0].values()) for r in (self.rod, *self.member_rods))
+        return self.membrane.energy(xm, self.lam) + self.dielectric.energy(xm) + rod
 
     def evaluate(self, y: np.ndarray, order: int = 2) -> Evaluation:
         """Energy parts, gradient and (order 2) tangent at positions y (3 nn,)."""
@@ -148,6 +150,11 @@ class DemesProblem:
             g_m = g_m + g_d
             K_m = K_m + K_d if order >= 2 else None
         rod_e, g_f, K_f = self.rod.evaluate(x, order)
+        for rod in self.member_rods:
+            e, g_r, K_r = rod.evaluate(x, order)
+            rod_e = {k: rod_e[k] + e[k] for k in rod_e}
+            g_f = g_f + g_r
+            K_f = K_f + K_r if order >= 2 else None
         g, K = g_m.copy(), K_m
         if n is not None:
             J1 = self._offset_jacobian(n, ids)

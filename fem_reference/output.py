@@ -82,11 +82,17 @@ def slack_fractions(problem: DemesProblem, y: np.ndarray) -> tuple[float, float]
 
 
 def blocks(problem: DemesProblem, y: np.ndarray, scene: Scene) -> dict[str, CellBlock]:
-    """VTK cell blocks: membrane elements with their fields, frame edges with section forces;
-    ``scene`` is the state's (its pre-stretch and voltage)."""
+    """VTK cell blocks: membrane elements with their fields, frame edges with section forces
+    (the members' in a block of their own); ``scene`` is the state's (its pre-stretch and voltage)."""
     x = y.reshape(-1, 3)
     mesh = problem.mesh
-    return {
+    out = {
         "membrane": CellBlock(mesh.cell_type, mesh.cells, membrane_fields(problem, y, scene)),
         "frame": CellBlock("line", problem.rod.edges, problem.rod.section_forces(x)),
     }
+    members = [rod for rod in problem.member_rods if rod.props.EA > 0]  # the joints have no section of their own
+    if members:
+        forces = [rod.section_forces(x) for rod in members]
+        out["members"] = CellBlock("line", np.vstack([rod.edges for rod in members]),
+                                   {k: np.concatenate([f[k] for f in forces]) for k in forces[0]})
+    return out

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 from scipy.interpolate import CubicSpline
+from typing import Sequence
 
 
 def frame_at(x: np.ndarray, s: np.ndarray, length: float, s_query: np.ndarray) -> np.ndarray:
@@ -48,20 +49,54 @@ def bending_angle(x: np.ndarray, s: np.ndarray, length: float, s_apex: float, si
     reads as a half turn (it read 390 deg for a 30 deg curl at 6 divisions, and 410 for 50 at 4,
     where the coarse base dipped 0.3 mm and rose 0.06 mm while stepping back).
     """
-    t = np.linspace(0.0, 1.0, samples)
-    mid = 0.5 * (frame_at(x, s, length, t * s_apex) + frame_at(x, s, length, -t * (length - s_apex)))
+    mid, step, w, off_plane = _midline(x, s, length, s_apex, size, samples)
     chord = mid[-1] - mid[0]
     theta = float(np.degrees(np.arctan2(chord[2], chord[1])))
-    step = np.diff(mid[:, 1:], axis=0)
-    w = np.hypot(step[:, 0], step[:, 1])
-    keep = (w > 0.1 * np.median(w)) & (w > 1e-9 * size)
-    if not keep.any():
-        return theta
-    keep &= np.cumsum(np.abs(mid[1:, 2]) > 1e-2 * size) > 0
+    keep = (w > 0.1 * np.median(w)) & (w > 1e-9 * size) & off_plane
     if not keep.any():
         return theta
     psi = np.degrees(np.unwrap(np.arctan2(step[keep, 1], step[keep, 0])))
     return nearest_turn(theta, float(np.average(psi, weights=w[keep])))
+
+
+def _midline(x: np.ndarray, s: np.ndarray, length: float, s_apex: float, size: float, samples: int
+             ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The frame's midline (:func:`bending_angle`) at ``samples`` equal fractions t of the way
+    from the base midpoint to the apex (samples, 3) mm; its steps in the y-z plane (samples - 1,
+    2) mm, their lengths, and whether the midline has left the flat plane (by 1e-2 of ``size``)
+    by each step's end."""
+    t = np.linspace(0.0, 1.0, samples)
+    mid = 0.5 * (frame_at(x, s, length, t * s_apex) + frame_at(x, s, length, -t * (length - s_apex)))
+    step = np.diff(mid[:, 1:], axis=0)
+    return mid, step, np.hypot(step[:, 0], step[:, 1]), np.cumsum(np.abs(mid[1:, 2]) > 1e-2 * size) > 0
+
+
+def segment_turns(x: np.ndarray, s: np.ndarray, length: float, s_apex: float, size: float,
+                  bounds: Sequence[float], samples: int = 512) -> np.ndarray:
+    """Turn (deg) of the frame's midline along each segment of a frame with windows in a row.
+
+    The midline is :func:`bending_angle`'s, its direction psi(t) read in the y-z plane
+    (atan2(dz, dy), 0 along the flat taped base, continuous from it). ``bounds`` are the
+    fractions t of the way from the base to the apex where the members cross the midline, so the
+    segments are the windows from the base to the apex, and segment k turns by
+    psi(t_k+1) - psi(t_k) (t_0 = 0, the last t = 1): its own bending, whatever the segments
+    below it did. The turns add up to the midline's whole turn, base to apex; a frame bent to a
+    circular arc turns twice its bending angle.
+
+    """
+    _, step, w, off_plane = _midline(x, s, length, s_apex, size, samples)
+    t_step = (np.arange(w.size) + 0.5) / w.size
+    # where the midline stands still (along the taped base, at a flat top) its few moving steps
+    # are the spline's wiggle, which may step back (a half turn): a direction is read from steps
+    # of at least half the median step
+    keep = (w > 0.5 * np.median(w)) & (w > 1e-9 * size) & off_plane
+    if not keep.any():
+        return np.zeros(len(bounds) + 1)
+    psi = np.degrees(np.unwrap(np.arctan2(step[keep, 1], step[keep, 0])))
+    t = np.concatenate([[0.0], np.sort(np.asarray(bounds, float)), [1.0]])
+    # flat (0) before the midline leaves the plane; the direction at the ends from the end steps
+    direction = np.interp(t, np.concatenate([[0.0], t_step[keep]]), np.concatenate([[0.0], psi]))
+    return np.diff(direction)
 
 
 def outline_bending_angle(x: np.ndarray, s: np.ndarray, outline) -> float:

@@ -76,8 +76,8 @@ def membrane_surface(res: Result):
 
 
 def add_state(pl, res: Result, offset: Sequence[float] = (0.0, 0.0, 0.0)) -> None:
-    """Add the membrane (light blue) and the frame centreline (dark red) of ``res``, shifted by
-    ``offset`` (mm), to the plotter's current view."""
+    """Add the membrane (light blue) and the frame centreline with its members (dark red) of
+    ``res``, shifted by ``offset`` (mm), to the plotter's current view."""
     import pyvista as pv
 
     shift = np.asarray(offset, float)
@@ -86,6 +86,11 @@ def add_state(pl, res: Result, offset: Sequence[float] = (0.0, 0.0, 0.0)) -> Non
     pl.add_mesh(surf, color="lightsteelblue", show_edges=False, opacity=0.85)
     frame = res.frame_curve() + shift
     pl.add_mesh(pv.lines_from_points(np.vstack([frame, frame[:1]])), color="darkred", line_width=4)
+    members = res.blocks.get("members")
+    if members is not None:
+        edges = np.asarray(members.connectivity)
+        lines = np.hstack([np.full((len(edges), 1), 2), edges]).ravel()
+        pl.add_mesh(pv.PolyData(res.x + shift, lines=lines), color="darkred", line_width=4)
 
 
 def render_states(states: Sequence[Result], path: str | Path, title: str = "",

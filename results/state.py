@@ -163,6 +163,19 @@ class Result:
         return metrics.nearest_turn(theta, previous) if usable else theta
 
     @property
+    def segment_turns(self) -> np.ndarray | None:
+        """For a frame with windows in a row (every member from one side to the other), the turn
+        (deg) of the frame's midline along each window from the base to the apex
+        (:func:`results.metrics.segment_turns`); None for other frames."""
+        self._need_scene()
+        bounds = self.scene.frame.segment_bounds
+        if bounds is None:
+            return None
+        x, s, length = self.frame_arc()
+        outline = self.scene.outline
+        return metrics.segment_turns(x, s, length, outline.apex_arc_length(), outline.side_length, bounds)
+
+    @property
     def bending_angle(self) -> float:
         """Bending angle (deg): base midpoint -> apex above the flat plane, in the symmetry plane,
         continuous from the flat state (:func:`results.metrics.bending_angle`); in a sweep, the

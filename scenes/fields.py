@@ -201,6 +201,32 @@ def vertex_list(name: str, value: Any) -> tuple[tuple[float, float], ...] | None
     return tuple(pts)
 
 
+MAX_MEMBERS = 32
+"""Most cross-members of a frame (their checks are O(k^2))."""
+
+
+@checked(f"up to {MAX_MEMBERS} members, each two [x, y] points on the outline, |x|, |y| <= 1e5")
+def member_list(name: str, value: Any) -> tuple[tuple[tuple[float, float], tuple[float, float]], ...]:
+    usage = (f"{name} must be a list of up to {MAX_MEMBERS} members, each the two ends [[x1, y1], [x2, y2]] "
+             "(mm) of a straight strip across the frame, e.g. [[[-10, 30], [10, 30]]]")
+    if value is None:
+        return ()
+    if not isinstance(value, (list, tuple)) or len(value) > MAX_MEMBERS:
+        raise SceneError(usage)
+    out = []
+    for k, member in enumerate(value):
+        if not isinstance(member, (list, tuple)) or len(member) != 2:
+            raise SceneError(f"{name}[{k}] = {show_value(member)}: {usage}")
+        ends = []
+        for j, p in enumerate(member):
+            if not isinstance(p, (list, tuple)) or len(p) != 2:
+                raise SceneError(f"{name}[{k}][{j}] = {show_value(p)}: {usage}")
+            ends.append((between(-1e5, 1e5)(f"{name}[{k}][{j}][0]", p[0]),
+                         between(-1e5, 1e5)(f"{name}[{k}][{j}][1]", p[1])))
+        out.append(tuple(ends))
+    return tuple(out)
+
+
 def spec(default: Any, check: Check | None, unit: str = "", doc: str = "", bounds: str | None = None) -> Any:
     """A scene field with its default, its check, its unit, a one-line description and what it
     accepts (default: its check's ``bounds``; give it where the section checks more, across fields)."""
@@ -239,8 +265,10 @@ class Section:
         for f in dataclasses.fields(self):
             if not f.init:
                 continue
-            v = getattr(self, f.name)
-            if isinstance(v, tuple):
-                v = [list(p) if isinstance(p, tuple) else p for p in v]
-            out[f.name] = v
+            out[f.name] = _as_lists(getattr(self, f.name))
         return out
+
+
+def _as_lists(value: Any) -> Any:
+    """Nested tuples (points, members) as nested lists, as TOML and JSON write them."""
+    return [_as_lists(v) for v in value] if isinstance(value, tuple) else value

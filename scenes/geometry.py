@@ -245,24 +245,33 @@ class Outline:
         return np.count_nonzero(straddle & (x < x_cross), axis=1) % 2 == 1
 
     def distance(self, points: np.ndarray) -> np.ndarray:
-        """Exact distance (mm) from points (m, 2) to the outline, piece by piece."""
+        """Exact distance (mm) from points (m, 2) to the outline."""
+        return self.project(points)[1]
+
+    def project(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The outline's nearest points to points (m, 2): their arc lengths (m,) and distances
+        (m,), mm, exact piece by piece."""
+        points = np.atleast_2d(np.asarray(points, float))
         best = np.full(points.shape[0], np.inf)
+        s_best = np.zeros(points.shape[0])
         for piece in self.pieces:
             if piece.length == 0:
                 continue
             if piece.radius == 0.0:
                 u = np.clip((points - piece.start) @ piece.direction, 0.0, piece.length)
-                d = np.linalg.norm(points - (piece.start + u[:, None] * piece.direction), axis=1)
             else:
                 rel = points - piece.centre
                 r0 = piece.start - piece.centre
-                ang = np.arctan2(r0[0] * rel[:, 1] - r0[1] * rel[:, 0], rel @ r0) * np.sign(piece.turn)
-                on_arc = np.mod(ang, 2 * np.pi) <= abs(piece.turn)
-                ends = piece.at(np.array([0.0, piece.length]))[0]
-                to_end = np.min(np.linalg.norm(points[:, None, :] - ends[None], axis=2), axis=1)
-                d = np.where(on_arc, np.abs(np.linalg.norm(rel, axis=1) - piece.radius), to_end)
-            best = np.minimum(best, d)
-        return best
+                ang = np.mod(np.arctan2(r0[0] * rel[:, 1] - r0[1] * rel[:, 0], rel @ r0) * np.sign(piece.turn),
+                             2 * np.pi)
+                # off the arc: the nearer end (the angle past the arc's end, or before its start)
+                past = ang > abs(piece.turn)
+                nearer_end = np.where(ang - abs(piece.turn) < 2 * np.pi - ang, piece.length, 0.0)
+                u = np.where(past, nearer_end, ang * piece.radius)
+            d = np.linalg.norm(points - piece.at(u)[0], axis=1)
+            closer = d < best
+            best[closer], s_best[closer] = d[closer], piece.s_start + u[closer]
+        return np.mod(s_best, self.length), best
 
     # ------------------------------------------------------------ landmarks
     @property

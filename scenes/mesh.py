@@ -22,7 +22,7 @@ graded mesh as it does a uniform one.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Callable
+from typing import Callable, NamedTuple, Sequence
 
 import numpy as np
 import triangle as tr
@@ -31,6 +31,7 @@ from matplotlib.tri import Triangulation
 from scipy.spatial import cKDTree
 
 from .errors import SceneError
+from .members import Member
 from .scene import Scene
 
 SizeField = Callable[[np.ndarray], np.ndarray]
@@ -66,6 +67,11 @@ class TriangleMesh:
     spacing
         Nominal element size h0 / 2^refinement, mm: the boundary node spacing of a uniform mesh
         (a graded mesh's is this / ``mesh.grading`` and its elements grow to this inside).
+    members, member_bonds
+        For each of ``frame.members``, its centreline's vertex ids from its start to its end (both
+        frame nodes), a line of mesh edges; and for each of them its bond node, on the member's
+        bond line ``frame.bond_lever`` to its left (where the member crosses the outline's
+        strip, the bond line's end, on the outline's bond line).
     """
 
     nodes: np.ndarray
@@ -74,6 +80,8 @@ class TriangleMesh:
     frame_s: np.ndarray
     bond_nodes: np.ndarray
     spacing: float
+    members: tuple[np.ndarray, ...] = ()
+    member_bonds: tuple[np.ndarray, ...] = ()
 
     @property
     def frame_bond(self) -> np.ndarray:
@@ -204,16 +212,34 @@ def mid_arc_length(sa: np.ndarray, sb: np.ndarray, L: float) -> np.ndarray:
     return np.mod(sa + 0.5 * d, L)
 
 
-def _base_mesh(scene: Scene, size: SizeField | None = None
-               ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """Vertices (nv, 2), triangles (nt, 3), boundary vertex ids, their arc lengths and their
-    bond-line vertex ids, at the scene's spacing h0 (or the local size ``size``, at most h0)."""
+class _Base(NamedTuple):
+    """An unrefined mesh: vertices (nv, 2), triangles (nt, 3), boundary vertex ids, their arc
+    lengths, their bond-line vertex ids, the members' centreline chains and their nodes' bond
+    nodes."""
+
+    verts: np.ndarray
+    tris: np.ndarray
+    frame_nodes: np.ndarray
+    frame_s: np.ndarray
+    bond_nodes: np.ndarray
+    members: tuple[np.ndarray, ...] = ()
+    member_bonds: tuple[np.ndarray, ...] = ()
+
+
+def _base_mesh(scene: Scene, size: SizeField | None = None) -> _Base:
+    """The mesh at the scene's spacing h0 (or the local size ``size``, at most h0)."""
     o = scene.outline
     h = scene.spacing
     L = o.length
     lever = scene.frame.lever
     s_apex = o.apex_arc_length()
-    landmarks = np.unique(np.concatenate([o.breakpoints(), [s_apex, *scene.base_region()]]))
+    landmarks = np.unique(np.concatenate([o.breakpoints(), [s_apex, *scene.base_region()],
+                                          *([m.s_start, *_ring_crossings(scene, m, 0.0), m.s_end,
+                                             *_ring_crossings(scene, m, scene.frame.lever)]
+                                            for m in scene.frame.cross_members)]))
+    # one node where landmarks meet to round-off (a member square to the outline crosses the
+    # bond ring at its own end's bond point)
+    landmarks = landmarks[np.append(True, np.diff(landmarks) > 1e-9 * L)]
     along = None if size is None else (lambda s: size(o.evaluate(s)[0]))
 
     def spaced_on_axis(a: float, b: float) -> np.ndarray:
@@ -221,7 +247,10 @@ def _base_mesh(scene: Scene, size: SizeField | None = None
             return _spaced(a, b, h)
         return _graded(a, b, lambda y: size(np.column_stack([np.zeros_like(y), y])))
 
-    if _is_mirror_symmetric(scene):
+    plan = _mirror_plan(scene) if _is_mirror_symmetric(scene) else None
+    if plan is not None:
+        right_members, crossing, partner = plan
+        members = scene.frame.cross_members
         s_right = _boundary_arc_lengths(landmarks, 0.0, s_apex, h, along)
         right = o.evaluate(s_right)[0]
         right[0, 0] = 0.0
@@ -229,16 +258,34 @@ def _base_mesh(scene: Scene, size: SizeField | None = None
         apex[0] = 0.0
         bond = _bond_points(scene, np.append(s_right, s_apex))
         H = apex[1]
-        y_sym = np.concatenate([spaced_on_axis(H, H - lever), spaced_on_axis(H - lever, lever),
-                                spaced_on_axis(lever, 0.0)])[1:]
+        # a member crossing the axis square meets it at a node, its bond line at another
+        marks = np.unique([H, H - lever, lever, 0.0, *(y for k in crossing for y in (members[k].start[1],
+                                                                                   members[k].start[1] + lever))])[::-1]
+        y_sym = np.concatenate([spaced_on_axis(a, b) for a, b in zip(marks[:-1], marks[1:])])[1:]
         sym = np.column_stack([np.zeros_like(y_sym), y_sym])  # apex side down to y > 0
         loop = np.vstack([right, apex, sym])
         nl = len(loop)
-        i_top = len(right) + 1 + int(np.argmin(np.abs(y_sym - (H - lever))))
-        i_bottom = len(right) + 1 + int(np.argmin(np.abs(y_sym - lever)))
+
+        def on_axis_at(y: float) -> int:
+            return len(right) + 1 + int(np.argmin(np.abs(y_sym - y)))
+
+        i_top, i_bottom = on_axis_at(H - lever), on_axis_at(lever)
         chain = np.concatenate([[i_bottom], nl + np.arange(len(right) - 1), [i_top]])
-        verts, tris = _triangulate(np.vstack([loop, bond[1:-1]]), nl,
-                                   np.column_stack([chain[:-1], chain[1:]]), h, size)
+        ring_of = (lambda i: nl + i - 1)  # the bond node of right-half frame node i > 0
+        lines = _member_lines(scene, [members[k] for k in right_members], s_right, np.vstack([loop, bond[1:-1]]),
+                              ring_of, size)
+        for k in crossing:  # its right half, from the axis to its right end
+            member = members[k] if members[k].end[0] > 0 else Member(members[k].end, members[k].start,
+                                                                     members[k].s_end, members[k].s_start)
+            at = [int(np.argmin(np.abs(s_right - sj))) for sj in (_ring_crossings(scene, member, 0.0)[1], member.s_end,
+                                                                   _ring_crossings(scene, member, lever)[1])]
+            axis, axis_bond = on_axis_at(member.end[1]), on_axis_at(member.end[1] + lever)
+            points, inner, beside = _between(lines.points, (axis, ring_of(at[0])), (axis_bond, ring_of(at[2])), h, size)
+            lines = _Lines(points, lines.centre + [np.concatenate([[axis], inner, [ring_of(at[0]), at[1]]])],
+                           lines.bond_lines + [np.concatenate([[axis_bond], beside, [ring_of(at[2])]])],
+                           lines.bonds + [np.concatenate([[axis_bond], beside, [ring_of(at[2])] * 2])])
+        verts, tris = _triangulate(lines.points, nl, np.vstack([np.column_stack([chain[:-1], chain[1:]]),
+                                                                *lines.segments]), h, size)
         on_axis = np.abs(verts[:, 0]) < 1e-9 * o.side_length
         verts[on_axis, 0] = 0.0
         mirror_id = np.arange(len(verts))
@@ -251,13 +298,150 @@ def _base_mesh(scene: Scene, size: SizeField | None = None
         b_left = mirror_id[np.arange(1, len(right))][::-1]
         s_b = _snap(np.concatenate([np.append(s_right, s_apex), (L - s_right[1:])[::-1]]), landmarks, L)
         bond_b = np.concatenate([chain, mirror_id[chain[1:-1]][::-1]])
-        return verts, tris, np.concatenate([b_right, b_left]), s_b, bond_b
+        # the members in the scene's order: a left member is its partner's mirror image, run
+        # backwards so that its bond line is on its left; a crossing member is its right half's
+        # mirror image run backwards, then that half
+        chains, bonds = {}, {}
+        for j, k in enumerate(right_members):
+            chains[k], bonds[k] = lines.centre[j], lines.bonds[j]
+        for k, j in partner.items():
+            chains[k], bonds[k] = mirror_id[chains[j]][::-1], mirror_id[bonds[j]][::-1]
+        for j, k in enumerate(crossing, start=len(right_members)):
+            half, half_bonds = lines.centre[j], lines.bonds[j]
+            chains[k] = np.concatenate([mirror_id[half][::-1], half[1:]])
+            bonds[k] = np.concatenate([mirror_id[half_bonds][::-1], half_bonds[1:]])
+        order = range(len(members))
+        return _Base(verts, tris, np.concatenate([b_right, b_left]), s_b, bond_b,
+                     tuple(chains[k] for k in order), tuple(bonds[k] for k in order))
     s = _boundary_arc_lengths(landmarks, 0.0, L, h, along)
     m = s.size
     ring = m + np.arange(m)
-    verts, tris = _triangulate(np.vstack([o.evaluate(s)[0], _bond_points(scene, s)]), m,
-                               np.column_stack([ring, np.roll(ring, -1)]), h, size)
-    return verts, tris, np.arange(m), s, ring
+    points = np.vstack([o.evaluate(s)[0], _bond_points(scene, s)])
+    lines = _member_lines(scene, scene.frame.cross_members, s, points, lambda i: m + i, size)
+    segments = np.vstack([np.column_stack([ring, np.roll(ring, -1)]), *lines.segments])
+    verts, tris = _triangulate(lines.points, m, segments, h, size)
+    return _Base(verts, tris, np.arange(m), s, ring, tuple(lines.centre), tuple(lines.bonds))
+
+
+class _Lines(NamedTuple):
+    """Members meshed so far: the points and, per member, its centreline chain, its bond line
+    (a chain of mesh edges) and each centreline node's bond node."""
+
+    points: np.ndarray
+    centre: list[np.ndarray]
+    bond_lines: list[np.ndarray]
+    bonds: list[np.ndarray]
+
+    @property
+    def segments(self) -> list[np.ndarray]:
+        """The edges (k, 2) the mesh must keep: every chain's."""
+        return [np.column_stack([c[:-1], c[1:]]) for c in self.centre + self.bond_lines]
+
+
+def _between(points: np.ndarray, centre: tuple[int, int], bond: tuple[int, int], h: float,
+             size: SizeField | None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """New points on the straight line between the points ``centre`` at the spacing h (or the
+    local size), and as many on the parallel line between the points ``bond`` at the same
+    fractions of its length: beside the centreline's up to a shift along the line, which the
+    section's direction does not see. Returns the points and the ids of both rows."""
+    a, b = points[centre[0]], points[centre[1]]
+    length = float(np.linalg.norm(b - a))
+    if size is None:
+        along = _spaced(0.0, 1.0, h / length)[1:]
+    else:
+        along = _graded(0.0, 1.0, lambda t: size(a + t[:, None] * (b - a)) / length)[1:]
+    c, d = points[bond[0]], points[bond[1]]
+    ids = len(points) + np.arange(2 * along.size)
+    new = np.vstack([points, a + along[:, None] * (b - a), c + along[:, None] * (d - c)])
+    return new, ids[:along.size], ids[along.size:]
+
+
+def _member_lines(scene: Scene, members: Sequence[Member], s: np.ndarray, points: np.ndarray,
+                  ring_of: Callable[[int], int], size: SizeField | None, lines: _Lines | None = None) -> _Lines:
+    """Each member's centreline and bond line as chains of new points, with each centreline
+    node's bond node.
+
+    The centreline runs from its start's frame node to its end's through the bond nodes where it
+    crosses the bond ring; its bond line runs ``frame.bond_lever`` to its left between the two
+    bond nodes where that line crosses the ring (frame nodes are placed so that their bond nodes
+    lie there, :func:`_ring_crossings`), a node beside each inner node of the centreline
+    (:func:`_between`). The two nodes of each end share the bond line's end. ``s`` are the frame
+    nodes' arc lengths (ids 0, 1, ...) and ``ring_of(i)`` frame node i's bond node.
+    """
+    L, lever = scene.outline.length, scene.frame.lever
+    lines = lines or _Lines(points, [], [], [])
+    for member in members:
+        at = [int(np.argmin(np.abs(np.mod(s - sj + 0.5 * L, L) - 0.5 * L)))
+              for sj in (member.s_start, *_ring_crossings(scene, member, 0.0), member.s_end,
+                         *_ring_crossings(scene, member, lever))]
+        ends, bond_ends = (ring_of(at[1]), ring_of(at[2])), (ring_of(at[4]), ring_of(at[5]))
+        points, inner, beside = _between(lines.points, ends, bond_ends, scene.spacing, size)
+        lines = _Lines(points, lines.centre + [np.concatenate([[at[0], ends[0]], inner, [ends[1], at[3]]])],
+                       lines.bond_lines + [np.concatenate([[bond_ends[0]], beside, [bond_ends[1]]])],
+                       lines.bonds + [np.concatenate([[bond_ends[0]] * 2, beside, [bond_ends[1]] * 2])])
+    return lines
+
+
+def _mirror_plan(scene: Scene) -> tuple[list[int], list[int], dict[int, int]] | None:
+    """How the members of a mirror-symmetric frame mesh on its right half: the members right of
+    the axis x = 0, those that cross it square, and each left member's right partner (mirror
+    image); None if the members are not mirror-symmetric so (a member on the axis, crossing it
+    aslant or touching it, or one without its mirror image)."""
+    tol = 1e-9 * scene.outline.side_length
+    members = scene.frame.cross_members
+    right, crossing, left = [], [], []
+    for k, m in enumerate(members):
+        x = np.array([m.start[0], m.end[0]])
+        if x.min() > tol:
+            right.append(k)
+        elif x.max() < -tol:
+            left.append(k)
+        elif x.min() < -tol and x.max() > tol and abs(m.start[1] - m.end[1]) < tol and abs(x.sum()) < tol:
+            crossing.append(k)
+        else:
+            return None
+    partner = {}
+    for k in left:
+        mirrored = sorted(map(tuple, np.round(np.array([members[k].start, members[k].end]) * [-1.0, 1.0] / tol)))
+        match = [j for j in right if sorted(map(tuple, np.round(np.array([members[j].start, members[j].end]) / tol)))
+                 == mirrored]
+        if not match:
+            return None
+        partner[k] = match[0]
+    if len(partner) != len(right):
+        return None
+    return right, crossing, partner
+
+
+def _ring_crossings(scene: Scene, member: Member, shift: float) -> tuple[float, float]:
+    """Arc lengths (mm) of the two outline points whose bond points (``frame.bond_lever``
+    inside) lie on the member's centreline moved ``shift`` mm to its left, nearest its start and
+    its end: there that line crosses the bond ring, and frame nodes there put bond nodes on it."""
+    o, lever = scene.outline, scene.frame.lever
+    d = member.direction
+    origin = member.start + shift * np.array([-d[1], d[0]])
+
+    def off_line(s: np.ndarray) -> np.ndarray:  # signed distance of the bond points from the line
+        q = o.inner_offset(np.atleast_1d(s), lever) - origin
+        return q[:, 0] * d[1] - q[:, 1] * d[0]
+
+    out = []
+    for s_end in (member.s_start, member.s_end):
+        # at MIN_ANGLE_DEG or more the crossing is within 2 levers of the end, along the outline
+        grid = s_end + np.linspace(-4.0 * lever, 4.0 * lever, 801)
+        f = off_line(grid)
+        k = np.flatnonzero(np.sign(f[:-1]) * np.sign(f[1:]) <= 0)
+        k = k[np.argmin(np.abs(grid[k] - s_end))]
+        lo, hi = grid[k], grid[k + 1]
+        f_lo = f[k]
+        for _ in range(60):  # bisection to round-off
+            mid = 0.5 * (lo + hi)
+            if np.sign(off_line(mid)[0]) == np.sign(f_lo):
+                lo = mid
+            else:
+                hi = mid
+        out.append(float(np.mod(0.5 * (lo + hi), o.length)))
+    return out[0], out[1]
 
 
 def _size_field(scene: Scene) -> SizeField | None:
@@ -285,6 +469,12 @@ def _refine(verts: np.ndarray, tris: np.ndarray) -> tuple[np.ndarray, np.ndarray
     return new, fine, {(int(p), int(q)): nv + k for k, (p, q) in enumerate(edges)}
 
 
+def chain_with_midpoints(chain: np.ndarray, midpoint: dict) -> np.ndarray:
+    """An open chain of vertex ids with the midpoint of each of its edges put between its ends."""
+    mids = [midpoint[(min(p, q), max(p, q))] for p, q in zip(chain[:-1].tolist(), chain[1:].tolist())]
+    return np.column_stack([chain, np.append(mids, -1)]).ravel()[:-1]
+
+
 def membrane_mesh(scene: Scene, refinement: int = 0) -> TriangleMesh:
     """The membrane mesh of ``scene`` at ``refinement`` (element size halved that many times).
 
@@ -297,9 +487,13 @@ def membrane_mesh(scene: Scene, refinement: int = 0) -> TriangleMesh:
         raise SceneError(f"fem.refinement = {refinement!r} must be a whole number >= 0")
     o = scene.outline
     L = o.length
-    verts, tris, b_ids, b_s, b_bond = _base_mesh(scene, _size_field(scene))
+    verts, tris, b_ids, b_s, b_bond, members, member_bonds = _base_mesh(scene, _size_field(scene))
     for _ in range(int(refinement)):
         verts, tris, midpoint = _refine(verts, tris)
+        members = tuple(chain_with_midpoints(c, midpoint) for c in members)
+        # two nodes sharing a bond node (a member's end) give it to the node between them
+        shared = {**midpoint, **{(int(b), int(b)): int(b) for c in member_bonds for b in c}}
+        member_bonds = tuple(chain_with_midpoints(c, shared) for c in member_bonds)
         ring = np.roll(b_ids, -1)
         new_ids = np.array([midpoint[(min(p, q), max(p, q))] for p, q in zip(b_ids, ring)])
         new_bond = np.array([midpoint[(min(p, q), max(p, q))] for p, q in zip(b_bond, np.roll(b_bond, -1))])
@@ -321,7 +515,36 @@ def membrane_mesh(scene: Scene, refinement: int = 0) -> TriangleMesh:
         frame_s=b_s[order],
         bond_nodes=b_bond[order].astype(np.int64),
         spacing=scene.spacing / 2 ** int(refinement),
+        members=tuple(c.astype(np.int64) for c in members),
+        member_bonds=tuple(c.astype(np.int64) for c in member_bonds),
     )
+
+
+def member_joints(frame_nodes: np.ndarray, frame_bonds: np.ndarray, members: Sequence[np.ndarray],
+                  member_bonds: Sequence[np.ndarray]) -> list[tuple[np.ndarray, np.ndarray]]:
+    """The joints of the members to the outline, as 3-node rod chains with their nodes' bonds.
+
+    At a member's start J the chain is P, J, m (P the frame node before J, m the member's next
+    node), at its end J' it is m', J', Q (Q the frame node after J'): each runs with the member
+    and with the outline (counter-clockwise), so every edge has its bond on its left. J's bond is
+    the member's. ``frame_bonds`` and ``member_bonds`` are indexed like ``frame_nodes`` and
+    ``members``: bond node ids (DR) or bond points (the FEM) alike.
+
+    Returns
+    -------
+    list of (chain, bonds)
+        Node ids (3,) and the bonds of those nodes (3, ...), two per member.
+    """
+    where = {int(v): k for k, v in enumerate(frame_nodes)}
+    n = len(frame_nodes)
+    out = []
+    for chain, bonds in zip(members, member_bonds):
+        k0, k1 = where[int(chain[0])], where[int(chain[-1])]
+        out.append((np.array([frame_nodes[(k0 - 1) % n], chain[0], chain[1]]),
+                    np.stack([frame_bonds[(k0 - 1) % n], bonds[0], bonds[1]])))
+        out.append((np.array([chain[-2], chain[-1], frame_nodes[(k1 + 1) % n]]),
+                    np.stack([bonds[-2], bonds[-1], frame_bonds[(k1 + 1) % n]])))
+    return out
 
 
 # ----------------------------------------------------------------------------- transfer

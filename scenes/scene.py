@@ -16,9 +16,10 @@ import numpy as np
 from .errors import SceneError
 from .fields import (PRESTRETCH_MAX, Section, between, boolean, finite, gent_jm_value, integer_at_least,
                      non_negative, one_of, optional, permittivity_value, positive, prestretch_list,
-                     prestretch_spec, show_value, spec, vertex_list)
+                     member_list, prestretch_spec, show_value, spec, vertex_list)
 from .electrodes import ElectrodeSpec, check_electrodes, electrodes_from_list
 from .geometry import Outline, equilateral_triangle
+from .members import Member, frame_members, midline_fractions
 from .prestretch import PrestretchPath
 
 MAX_DIVISIONS = 400
@@ -55,7 +56,13 @@ def parent_table(data: dict[str, Any], key: str) -> tuple[dict[str, Any], str]:
 
 @dataclass(frozen=True)
 class FrameSpec(Section):
-    """The frame strip: outline of its centreline, cross-section, material and model."""
+    """The frame strip: outline of its centreline, cross-section, material and model. A frame
+    with windows adds cross-members (frame.members): straight strips of the same section, each
+    from a point of the outline to another, in the flat scene's x, y (the outline's frame: the
+    side from the first vertex to the second along +x, centred on the origin). They cut the film
+    into windows, all covered by film; each member is bonded to the film and joined rigidly to the
+    outline where it meets it (docs/elements.md, 'Frames with windows'). An [[electrodes]] region
+    per window drives the windows one by one."""
 
     _prefix = "frame"
     outline: str = spec("triangle", one_of("triangle", "polygon"), "",
@@ -89,6 +96,12 @@ class FrameSpec(Section):
         bounds="> 0, <= frame.width, or unset",
     )
 
+    members: Any = spec((), member_list, "mm",
+                        "cross-members: straight strips of the frame's section across the film, each from a "
+                        "point of the outline to another, [[x1, y1], [x2, y2]]; [] is one window",
+                        bounds=f"{member_list.bounds}; inside it, at 30 deg or more to it, apart by frame.width, "
+                        "every window wider than frame.width")
+
     def __post_init__(self) -> None:
         super().__post_init__()
         if self.outline == "polygon" and self.vertices is None:
@@ -109,7 +122,10 @@ class FrameSpec(Section):
                 f"frame.bond_lever = {self.bond_lever:g} mm must not exceed frame.width = "
                 f"{self.width:g} mm: the film is bonded across the strip, not beyond it"
             )
-        _ = self.geometry  # build (and so check) the outline now
+        _ = self.cross_members  # build (and so check) the outline and its members now
+        if self.members and self.film_offset:
+            raise SceneError("frame.film_offset = true is not modelled with frame.members (a film on one "
+                             "face of crossing strips); set frame.film_offset = false")
 
     @cached_property
     def geometry(self) -> Outline:
@@ -117,6 +133,27 @@ class FrameSpec(Section):
         if self.outline == "triangle":
             return Outline(equilateral_triangle(self.side_length), self.corner_radius)
         return Outline(np.array(self.vertices), self.corner_radius)
+
+    @cached_property
+    def cross_members(self) -> tuple[Member, ...]:
+        """The checked cross-members in the outline's frame (empty: one window)."""
+        return frame_members(self.geometry, self.members, self.width)
+
+    @cached_property
+    def segment_bounds(self) -> np.ndarray | None:
+        """Where the members cross the frame's midline, as fractions of the way from the base to
+        the apex (:func:`scenes.members.midline_fractions`); None unless the windows are in a
+        row."""
+        return midline_fractions(self.geometry, self.cross_members)
+
+    @property
+    def joint_EI(self) -> float:
+        """Out-of-plane stiffness (N mm^2) of a member's joint to the outline: the stiffer of
+        the strip's weak-axis bending and torsion (a relative rotation about the outline's
+        tangent bends the member and twists the outline, about the member's the reverse), so the
+        junction of three strips is as stiff as the strips over the joint's Voronoi length; in
+        the plane the joint has the strong-axis EI_s. Isotropic EI for model = 'paper'."""
+        return max(self.EI, self.GJ) if self.model == "strip" else self.EI
 
     @property
     def lever(self) -> float:

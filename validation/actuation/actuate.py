@@ -91,10 +91,17 @@ def voltage_states(scene: Scene, solver: str, voltages: Sequence[float],
     raise SceneError(f"--solver {solver!r}: use dr, fem or both")
 
 
-def row(res: Result, theta0: float) -> dict:
-    """One CSV row of a voltage state."""
+def row(res: Result, first: dict | None) -> dict:
+    """One CSV row of a voltage state; ``first`` is the sweep's first row (None: this is it),
+    the shape the strokes are counted from. A frame with windows in a row adds each window's
+    turn and stroke (``segment_k_turn``, ``segment_k_stroke``, k = 1 at the base)."""
     s = res.summary()
     e = res.energy
+    theta0 = first["bending_angle"] if first else s["bending_angle"]
+    segments = {}
+    for k, turn in enumerate(res.segment_turns if res.scene is not None and res.segment_turns is not None else [], 1):
+        segments[f"segment_{k}_turn"] = turn
+        segments[f"segment_{k}_stroke"] = (first[f"segment_{k}_turn"] if first else turn) - turn
     return {
         "voltage": res.info["voltage_V"],
         "bending_angle": s["bending_angle"],
@@ -106,6 +113,7 @@ def row(res: Result, theta0: float) -> dict:
         "energy_capacitor": res.info["capacitor_energy"],
         "film_area": res.info["film_area_mm2"],
         "film_thickness": res.info["film_thickness_mm"],
+        **segments,
         "converged": res.converged,
         "status": res.status,
         "message": res.message,
@@ -219,9 +227,9 @@ def run_actuation(scene: Scene, voltages: Voltages, solver: str, out_dir: str | 
             v = res.info["voltage_V"]
             name = label_of.get(v, format(Decimal(repr(v)).normalize(), "f"))
             entries.append((v, res.write_vtk(out / f"{label}_{name}V.vtu")))
-            rows.append(row(res, rows[0]["bending_angle"] if rows else res.bending_angle))
+            rows.append(row(res, rows[0] if rows else None))
             write_pvd(out / f"{label}.pvd", entries)
-            write_csv(out / f"{label}.csv", rows, units=UNITS)
+            write_csv(out / f"{label}.csv", rows, units={**UNITS, **{k: "deg" for k in rows[-1] if k.startswith("segment_")}})
             bar.set_postfix_str(f"V={name} theta={rows[-1]['bending_angle']:.1f} {res.status}")
             bar.update()
     finally:

@@ -23,7 +23,7 @@ from ..common.executor import connect, run_tasks
 from ..common.tables import write_csv
 
 GALLERY = ("square", "tall_rectangle", "wide_rectangle", "pentagon", "hexagon", "octagon", "large_triangle",
-           "asymmetric_quadrilateral", "thick_film_triangle", "rectangular_demes", "finger")
+           "asymmetric_quadrilateral", "thick_film_triangle", "rectangular_demes", "finger", "multisegment_gripper")
 """The built-in gallery scenes (scenes/<name>.toml)."""
 
 PRESTRETCHES = (1.1, 1.3)

@@ -125,7 +125,9 @@ def analyse(a: Any, out_dir: Path) -> Experiment | None:
         states = load_sweep(run_dir)
         if not states:
             continue
-        rows = [row(res, states[0].bending_angle) for res in states]
+        rows: list[dict] = []
+        for res in states:
+            rows.append(row(res, rows[0] if rows else None))
         ex.sweeps[run.label] = rows
         c = characteristics(rows)
         fit_file = run_dir / CALIBRATION

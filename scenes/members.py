@@ -1,0 +1,148 @@
+"""Cross-members: straight strips across the frame that divide its film into windows.
+
+A member is the centreline of a strip of the frame's section, from one point of the outline to
+another (``frame.members``, in the flat scene's x, y: the outline's frame, base along +x centred on
+the origin). It is bonded to the film on both sides and joined rigidly to the outline where it
+meets it (a T junction of three strips). The members cut the region inside the outline into
+windows, each covered by film; ``[[electrodes]]`` regions can follow them.
+
+What a scene can model is checked here, each refusal naming the member and the fix: both ends on
+the outline, the member inside it, meeting it at :data:`MIN_ANGLE_DEG` or more, no two members
+crossing or sharing an end, and every window wider than the strip.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Sequence
+
+import numpy as np
+import shapely
+from shapely.ops import polygonize, unary_union
+
+from .errors import SceneError
+from .geometry import Outline
+
+ON_OUTLINE = 0.01
+"""Largest distance of a member's end from the outline, as a fraction of the strip width: the
+end is moved onto the outline (a point typed on a straight side is on it to round-off)."""
+
+MIN_ANGLE_DEG = 30.0
+"""Smallest angle between a member and the outline where they meet: at a shallower angle the two
+strips overlap along a length of several widths, which a junction at one point does not model."""
+
+
+@dataclass(frozen=True)
+class Member:
+    """A straight cross-member's centreline in the flat scene, mm: from ``start`` to ``end``, both
+    on the outline at arc lengths ``s_start`` and ``s_end``."""
+
+    start: np.ndarray
+    end: np.ndarray
+    s_start: float
+    s_end: float
+
+    @property
+    def length(self) -> float:
+        """Centreline length, mm."""
+        return float(np.linalg.norm(self.end - self.start))
+
+    @property
+    def direction(self) -> np.ndarray:
+        """Unit vector (2,) from start to end."""
+        return (self.end - self.start) / self.length
+
+    @property
+    def line(self) -> shapely.LineString:
+        """The centreline as a shapely line, mm."""
+        return shapely.LineString([self.start, self.end])
+
+
+def frame_members(outline: Outline, ends: Sequence, width: float, name: str = "frame.members"
+                  ) -> tuple[Member, ...]:
+    """The checked members of ``ends`` ((k, 2, 2) mm) on ``outline`` for a strip ``width`` (mm).
+
+    Raises
+    ------
+    SceneError
+        Naming the member (``frame.members[k]``) and the fix.
+    """
+    if len(ends) == 0:
+        return ()
+    ends = np.asarray(ends, float).reshape(-1, 2, 2)
+    s, gap = outline.project(ends.reshape(-1, 2))
+    s, gap = s.reshape(-1, 2), gap.reshape(-1, 2)
+    on = outline.evaluate(s.ravel())
+    points, tangents = on[0].reshape(-1, 2, 2), on[1].reshape(-1, 2, 2)
+    members = []
+    for k in range(len(ends)):
+        for j in range(2):
+            if gap[k, j] > ON_OUTLINE * width:
+                x, y = ends[k, j]
+                raise SceneError(
+                    f"{name}[{k}] ends at [{x:g}, {y:g}], {gap[k, j]:.3g} mm from the frame's outline: a "
+                    "member runs from the outline to the outline; put both ends on its centreline (the "
+                    "sides of frame.vertices, in the outline's frame: base along +x centred on the origin)")
+        member = Member(points[k, 0], points[k, 1], float(s[k, 0]), float(s[k, 1]))
+        if member.length < 2.0 * width:
+            raise SceneError(f"{name}[{k}] is {member.length:.3g} mm long, shorter than two strip widths "
+                             f"(frame.width = {width:g} mm): it would join the outline to itself")
+        for j in range(2):
+            t, d = tangents[k, j], member.direction
+            sine = abs(float(t[0] * d[1] - t[1] * d[0]))
+            if sine < np.sin(np.radians(MIN_ANGLE_DEG)):
+                raise SceneError(
+                    f"{name}[{k}] meets the outline at {np.degrees(np.arcsin(min(sine, 1.0))):.3g} deg: a "
+                    f"member must cross the frame's strip at {MIN_ANGLE_DEG:g} deg or more")
+        inside = outline.contains(member.start + np.linspace(0.02, 0.98, 49)[:, None] * (member.end - member.start))
+        if not inside.all():
+            raise SceneError(f"{name}[{k}] leaves the frame: its centreline runs outside the outline "
+                             "between its ends; a member spans the film from one side to another")
+        members.append(member)
+    for i in range(len(members)):
+        for j in range(i + 1, len(members)):
+            a, b = members[i], members[j]
+            if a.line.distance(b.line) < width:
+                what = "cross" if a.line.intersects(b.line) else "come closer than the strip width"
+                raise SceneError(
+                    f"{name}[{i}] and {name}[{j}] {what}: members are separate strips joined to the outline "
+                    f"only; keep them frame.width = {width:g} mm apart or more")
+    for k, window in enumerate(windows(outline, members, width)):
+        film = window.buffer(-0.5 * width)
+        if film.is_empty or film.area <= 0.0:
+            x, y = window.representative_point().coords[0]
+            raise SceneError(
+                f"{name}: the window round [{x:.3g}, {y:.3g}] is narrower than the strip (frame.width = "
+                f"{width:g} mm): no film would be left between its strips; move the members apart or "
+                "away from the corners")
+    return tuple(members)
+
+
+def windows(outline: Outline, members: Sequence[Member], width: float) -> list[shapely.Polygon]:
+    """The windows: the regions the members cut the outline's inside into (centreline to
+    centreline, mm), ordered by their centroid's y, then x."""
+    ring = shapely.LinearRing(outline.polyline(min(outline.side_length, width) / 40)[0])
+    # each line runs on past the outline, so that it crosses the ring's chords however they lie
+    reach = [shapely.LineString([m.start - width * m.direction, m.end + width * m.direction]) for m in members]
+    faces = list(polygonize(unary_union([ring, *reach])))
+    faces = [f for f in faces if f.area > 0]
+    return sorted(faces, key=lambda f: (round(f.centroid.y, 9), round(f.centroid.x, 9)))
+
+
+def midline_fractions(outline: Outline, members: Sequence[Member]) -> np.ndarray | None:
+    """Where each member crosses the frame's midline (the midpoints of its two sides at equal
+    fractions of the way from the base midpoint to the apex, ``results.metrics.bending_angle``):
+    the fraction of that way, the mean of its two ends' (m,), in the members' order. None unless
+    every member runs from one side to the other (windows in a row, base to apex)."""
+    if not members:
+        return None
+    L, s_apex = outline.length, outline.apex_arc_length()
+    out = []
+    for m in members:
+        right = [s for s in (m.s_start, m.s_end) if 0.0 < s < s_apex]
+        left = [s for s in (m.s_start, m.s_end) if s_apex < s < L]
+        if len(right) != 1 or len(left) != 1:
+            return None
+        out.append(0.5 * (right[0] / s_apex + (L - left[0]) / (L - s_apex)))
+    return np.array(out)
+
