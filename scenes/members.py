@@ -58,9 +58,10 @@ class Member:
         return shapely.LineString([self.start, self.end])
 
 
-def frame_members(outline: Outline, ends: Sequence, width: float, name: str = "frame.members"
+def frame_members(outline: Outline, ends: Sequence, width: float, lever: float, name: str = "frame.members"
                   ) -> tuple[Member, ...]:
-    """The checked members of ``ends`` ((k, 2, 2) mm) on ``outline`` for a strip ``width`` (mm).
+    """The checked members of ``ends`` ((k, 2, 2) mm) on ``outline`` for a strip ``width`` (mm)
+    whose film turns its section ``lever`` mm from its centreline.
 
     Raises
     ------
@@ -98,6 +99,13 @@ def frame_members(outline: Outline, ends: Sequence, width: float, name: str = "f
         if not inside.all():
             raise SceneError(f"{name}[{k}] leaves the frame: its centreline runs outside the outline "
                              "between its ends; a member spans the film from one side to another")
+        try:
+            for shift in (0.0, lever):
+                ring_crossings(outline, member, lever, shift)
+        except ValueError:
+            raise SceneError(f"{name}[{k}] ends too near a corner: its strip's bond line (frame.bond_lever to its "
+                             "left) does not cross the outline's near its ends; move its ends along the sides, "
+                             "away from the corners") from None
         members.append(member)
     for i in range(len(members)):
         for j in range(i + 1, len(members)):
@@ -116,6 +124,47 @@ def frame_members(outline: Outline, ends: Sequence, width: float, name: str = "f
                 f"{width:g} mm): no film would be left between its strips; move the members apart or "
                 "away from the corners")
     return tuple(members)
+
+
+def ring_crossings(outline: Outline, member: Member, lever: float, shift: float) -> tuple[float, float]:
+    """Arc lengths (mm) of the two outline points whose bond points (``lever`` mm inside) lie on
+    the member's centreline moved ``shift`` mm to its left, the one nearest its start and the one
+    nearest its end along it: there that line crosses the outline's bond line (the mesh puts frame
+    nodes there, so that their bond nodes lie on it).
+
+    Raises
+    ------
+    ValueError
+        If the line does not cross the bond line within half the member's length of an end.
+    """
+    d = member.direction
+    origin = member.start + shift * np.array([-d[1], d[0]])
+
+    def off_line(s: np.ndarray) -> np.ndarray:  # signed distance of the bond points from the line
+        q = outline.inner_offset(np.atleast_1d(s), lever) - origin
+        return q[:, 0] * d[1] - q[:, 1] * d[0]
+
+    grid = np.linspace(0.0, outline.length, max(2001, int(outline.length / (0.05 * lever))))
+    f = off_line(grid)
+    crossings = []
+    for k in np.flatnonzero(np.sign(f[:-1]) * np.sign(f[1:]) <= 0):
+        lo, hi, f_lo = grid[k], grid[k + 1], f[k]
+        for _ in range(60):  # bisection to round-off
+            mid = 0.5 * (lo + hi)
+            if np.sign(off_line(mid)[0]) == np.sign(f_lo):
+                lo = mid
+            else:
+                hi = mid
+        s = 0.5 * (lo + hi)
+        crossings.append((float((outline.inner_offset(np.array([s]), lever)[0] - origin) @ d) / member.length, s))
+    along = np.array([c[0] for c in crossings])
+    out = []
+    for end in (0.0, 1.0):
+        near = np.flatnonzero(np.abs(along - end) < 0.5) if along.size else along
+        if near.size == 0:
+            raise ValueError("no crossing")
+        out.append(float(np.mod(crossings[near[np.argmin(np.abs(along[near] - end))]][1], outline.length)))
+    return out[0], out[1]
 
 
 def windows(outline: Outline, members: Sequence[Member], width: float) -> list[shapely.Polygon]:

@@ -31,7 +31,7 @@ from matplotlib.tri import Triangulation
 from scipy.spatial import cKDTree
 
 from .errors import SceneError
-from .members import Member
+from .members import Member, ring_crossings
 from .scene import Scene
 
 SizeField = Callable[[np.ndarray], np.ndarray]
@@ -234,8 +234,8 @@ def _base_mesh(scene: Scene, size: SizeField | None = None) -> _Base:
     lever = scene.frame.lever
     s_apex = o.apex_arc_length()
     landmarks = np.unique(np.concatenate([o.breakpoints(), [s_apex, *scene.base_region()],
-                                          *([m.s_start, *_ring_crossings(scene, m, 0.0), m.s_end,
-                                             *_ring_crossings(scene, m, scene.frame.lever)]
+                                          *([m.s_start, *ring_crossings(o, m, scene.frame.lever, 0.0), m.s_end,
+                                             *ring_crossings(o, m, scene.frame.lever, scene.frame.lever)]
                                             for m in scene.frame.cross_members)]))
     # one node where landmarks meet to round-off (a member square to the outline crosses the
     # bond ring at its own end's bond point)
@@ -277,8 +277,8 @@ def _base_mesh(scene: Scene, size: SizeField | None = None) -> _Base:
         for k in crossing:  # its right half, from the axis to its right end
             member = members[k] if members[k].end[0] > 0 else Member(members[k].end, members[k].start,
                                                                      members[k].s_end, members[k].s_start)
-            at = [int(np.argmin(np.abs(s_right - sj))) for sj in (_ring_crossings(scene, member, 0.0)[1], member.s_end,
-                                                                   _ring_crossings(scene, member, lever)[1])]
+            at = [int(np.argmin(np.abs(s_right - sj))) for sj in (ring_crossings(o, member, lever, 0.0)[1], member.s_end,
+                                                                   ring_crossings(o, member, lever, lever)[1])]
             axis, axis_bond = on_axis_at(member.end[1]), on_axis_at(member.end[1] + lever)
             points, inner, beside = _between(lines.points, (axis, ring_of(at[0])), (axis_bond, ring_of(at[2])), h, size)
             lines = _Lines(points, lines.centre + [np.concatenate([[axis], inner, [ring_of(at[0]), at[1]]])],
@@ -364,7 +364,7 @@ def _member_lines(scene: Scene, members: Sequence[Member], s: np.ndarray, points
     The centreline runs from its start's frame node to its end's through the bond nodes where it
     crosses the bond ring; its bond line runs ``frame.bond_lever`` to its left between the two
     bond nodes where that line crosses the ring (frame nodes are placed so that their bond nodes
-    lie there, :func:`_ring_crossings`), a node beside each inner node of the centreline
+    lie there, :func:`scenes.members.ring_crossings`), a node beside each inner node of the centreline
     (:func:`_between`). The two nodes of each end share the bond line's end. ``s`` are the frame
     nodes' arc lengths (ids 0, 1, ...) and ``ring_of(i)`` frame node i's bond node.
     """
@@ -372,8 +372,8 @@ def _member_lines(scene: Scene, members: Sequence[Member], s: np.ndarray, points
     lines = lines or _Lines(points, [], [], [])
     for member in members:
         at = [int(np.argmin(np.abs(np.mod(s - sj + 0.5 * L, L) - 0.5 * L)))
-              for sj in (member.s_start, *_ring_crossings(scene, member, 0.0), member.s_end,
-                         *_ring_crossings(scene, member, lever))]
+              for sj in (member.s_start, *ring_crossings(scene.outline, member, lever, 0.0), member.s_end,
+                         *ring_crossings(scene.outline, member, lever, lever))]
         ends, bond_ends = (ring_of(at[1]), ring_of(at[2])), (ring_of(at[4]), ring_of(at[5]))
         points, inner, beside = _between(lines.points, ends, bond_ends, scene.spacing, size)
         lines = _Lines(points, lines.centre + [np.concatenate([[at[0], ends[0]], inner, [ends[1], at[3]]])],
@@ -411,37 +411,6 @@ def _mirror_plan(scene: Scene) -> tuple[list[int], list[int], dict[int, int]] | 
     if len(partner) != len(right):
         return None
     return right, crossing, partner
-
-
-def _ring_crossings(scene: Scene, member: Member, shift: float) -> tuple[float, float]:
-    """Arc lengths (mm) of the two outline points whose bond points (``frame.bond_lever``
-    inside) lie on the member's centreline moved ``shift`` mm to its left, nearest its start and
-    its end: there that line crosses the bond ring, and frame nodes there put bond nodes on it."""
-    o, lever = scene.outline, scene.frame.lever
-    d = member.direction
-    origin = member.start + shift * np.array([-d[1], d[0]])
-
-    def off_line(s: np.ndarray) -> np.ndarray:  # signed distance of the bond points from the line
-        q = o.inner_offset(np.atleast_1d(s), lever) - origin
-        return q[:, 0] * d[1] - q[:, 1] * d[0]
-
-    out = []
-    for s_end in (member.s_start, member.s_end):
-        # at MIN_ANGLE_DEG or more the crossing is within 2 levers of the end, along the outline
-        grid = s_end + np.linspace(-4.0 * lever, 4.0 * lever, 801)
-        f = off_line(grid)
-        k = np.flatnonzero(np.sign(f[:-1]) * np.sign(f[1:]) <= 0)
-        k = k[np.argmin(np.abs(grid[k] - s_end))]
-        lo, hi = grid[k], grid[k + 1]
-        f_lo = f[k]
-        for _ in range(60):  # bisection to round-off
-            mid = 0.5 * (lo + hi)
-            if np.sign(off_line(mid)[0]) == np.sign(f_lo):
-                lo = mid
-            else:
-                hi = mid
-        out.append(float(np.mod(0.5 * (lo + hi), o.length)))
-    return out[0], out[1]
 
 
 def _size_field(scene: Scene) -> SizeField | None:

@@ -137,7 +137,7 @@ class FrameSpec(Section):
     @cached_property
     def cross_members(self) -> tuple[Member, ...]:
         """The checked cross-members in the outline's frame (empty: one window)."""
-        return frame_members(self.geometry, self.members, self.width)
+        return frame_members(self.geometry, self.members, self.width, self.lever)
 
     @cached_property
     def segment_bounds(self) -> np.ndarray | None:

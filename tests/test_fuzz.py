@@ -19,6 +19,7 @@ from hypothesis import strategies as st
 import dr
 import scenes
 from fem_reference.model import DemesProblem
+from scenes.mesh import membrane_mesh
 from scenes import DemesError, SceneError
 from validation.cli import main
 
@@ -155,6 +156,55 @@ def test_the_papers_nets_converge_or_stop_physically_on_any_polygon(polygon, net
         return
     settled(res)
     assert res.status in PHYSICAL_STOPS, res.message
+
+
+member_ends = st.lists(st.tuples(st.integers(0, 15), st.sampled_from([-1, 0, 0, 0, 1]), st.floats(0.2, 0.8),
+                                  st.floats(0.2, 0.8)), min_size=1, max_size=3)
+"""Members as (side, offset, fraction, fraction): their ends on two straight pieces of the outline,
+the second about halfway round from the first (``offset`` pieces off), at those fractions of
+their lengths."""
+
+
+@settings(max_examples=200 if LONG else 25)
+@given(polygon=star_polygons, ends=member_ends, shift=st.sampled_from([0.0, 0.0, 0.5, -3.0]))
+def test_members_on_any_polygon_are_meshed_and_modelled_or_refused_by_name(polygon, ends, shift):
+    """Cross-members drawn between random points of a random polygon's outline (some moved off
+    it): the scene refuses them with a SceneError naming frame.members, or the mesh holds every
+    member as a straight line of edges from frame node to frame node with its bond nodes at the
+    lever, and the FEM's frame carries no energy and no force in the flat state at no pre-stretch."""
+    vertices = star_vertices(*polygon)
+    try:
+        outline = BASE.updated(**{"frame.outline": "polygon", "frame.vertices": vertices, "frame.corner_radius": 4.0,
+                                  "mesh.divisions": 6}).outline
+    except SceneError:
+        event("the outline is refused")
+        return
+    sides = [p for p in outline.pieces if p.radius == 0.0 and p.length > 0]
+    opposite = [(i, i + len(sides) // 2 + offset) for i, offset, _, _ in ends]
+    s_ends = [[sides[i % len(sides)].s_start + f * sides[i % len(sides)].length,
+               sides[j % len(sides)].s_start + g * sides[j % len(sides)].length]
+              for (i, j), (_, _, f, g) in zip(opposite, ends)]
+    points = outline.evaluate(np.ravel(s_ends))[0].reshape(-1, 2, 2) + shift
+    try:
+        scene = BASE.updated(**{"frame.outline": "polygon", "frame.vertices": vertices, "frame.corner_radius": 4.0,
+                                "mesh.divisions": 6, "frame.members": points.round(6).tolist(), "prestretch": 1.0})
+        mesh = membrane_mesh(scene, 1)
+    except SceneError as e:
+        assert "frame.members" in str(e) or "bond line" in str(e), str(e)
+        event("SceneError")
+        return
+    event(f"{len(mesh.members)} members meshed")
+    for chain, bonds in zip(mesh.members, mesh.member_bonds):
+        p = mesh.nodes[chain]
+        u = (p[-1] - p[0]) / np.linalg.norm(p[-1] - p[0])
+        left = np.array([-u[1], u[0]])
+        assert np.abs((p - p[0]) @ left).max() < 1e-9 * outline.side_length
+        assert np.allclose((mesh.nodes[bonds] - p) @ left, scene.frame.lever, atol=1e-9 * outline.side_length)
+        assert chain[0] in mesh.frame_nodes and chain[-1] in mesh.frame_nodes
+    problem = DemesProblem(scene, 0, "P1")
+    flat = problem.evaluate(problem.X.ravel(), order=1)
+    assert abs(flat.parts["frame_bending"]) + abs(flat.parts["frame_torsion"]) < 1e-20
+    assert np.abs(flat.gradient.reshape(-1, 3)[~problem.held]).max() < 1e-9
 
 
 toml_texts = st.one_of(

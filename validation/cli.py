@@ -42,11 +42,24 @@ from .solve.levels import contact_note, print_table, record_states, state_notes
 
 
 def _parse_value(text: str) -> Any:
-    """A --set value: TOML-like literals (numbers, true/false, lists) or a bare string."""
+    """A --set value: TOML-like literals (numbers, true/false, lists), numbers joined by commas
+    as a list (as --prestretch takes a pair), or a bare string.
+
+    >>> _parse_value("[1.3, 1.0]"), _parse_value("1.025,1.15"), _parse_value("gent"), _parse_value("a, 1")
+    ([1.3, 1.0], [1.025, 1.15], 'gent', 'a, 1')
+    """
     try:
         return json.loads(text)
     except (ValueError, RecursionError):  # not JSON (a bare word), or too deep / too many digits
-        return text
+        pass
+    if "," in text:
+        try:
+            parts = [json.loads(p) for p in text.split(",")]
+        except (ValueError, RecursionError):
+            return text
+        if all(isinstance(p, (int, float)) and not isinstance(p, bool) for p in parts):
+            return parts
+    return text
 
 
 def load_scene(args: argparse.Namespace) -> scenes.Scene:
