@@ -18,6 +18,8 @@ from hypothesis import strategies as st
 
 import dr
 import scenes
+from dr.demes_model import build as build_dr
+from dr.kernels import gradient as dr_gradient
 from fem_reference.model import DemesProblem
 from scenes.mesh import membrane_mesh
 from scenes import DemesError, SceneError
@@ -171,7 +173,7 @@ def test_members_on_any_polygon_are_meshed_and_modelled_or_refused_by_name(polyg
     """Cross-members drawn between random points of a random polygon's outline (some moved off
     it): the scene refuses them with a SceneError naming frame.members, or the mesh holds every
     member as a straight line of edges from frame node to frame node with its bond nodes at the
-    lever, and the FEM's frame carries no energy and no force in the flat state at no pre-stretch."""
+    lever, and neither the FEM's model nor DR's carries a force in the flat state at no pre-stretch."""
     vertices = star_vertices(*polygon)
     try:
         outline = BASE.updated(**{"frame.outline": "polygon", "frame.vertices": vertices, "frame.corner_radius": 4.0,
@@ -205,6 +207,14 @@ def test_members_on_any_polygon_are_meshed_and_modelled_or_refused_by_name(polyg
     flat = problem.evaluate(problem.X.ravel(), order=1)
     assert abs(flat.parts["frame_bending"]) + abs(flat.parts["frame_torsion"]) < 1e-20
     assert np.abs(flat.gradient.reshape(-1, 3)[~problem.held]).max() < 1e-9
+    # DR's model of the same scene: no force anywhere in the flat state either
+    model = build_dr(scene.updated(**{"dr.membrane_net": "triangles"}), 1.0).model
+    packed = model.pack()
+    X = np.zeros((packed.n_total, 3))
+    X[:packed.n] = model.nodes
+    G = np.zeros_like(X)
+    dr_gradient(X, packed, G, np.zeros((0, 6)))
+    assert np.abs(G[:packed.n][~model.fixed]).max() < 1e-9
 
 
 toml_texts = st.one_of(
