@@ -5,7 +5,9 @@ path). The voltage is then raised along the requested list, each state relaxed f
 before. A relaxation that fails (no convergence, divergence, a fold) is retried from the last
 good state with the voltage step halved, ``BISECTIONS`` times; if it still fails, the path stops
 with the voltages that bracket the failure: status ``pull_in`` (an electromechanical instability)
-when no equilibrium was found there, or the relaxation's own status for a fold or a contact. The sweep also stops once the frame is flat (bending angle below ``FLAT_DEG``).
+when no equilibrium was found there, or the relaxation's own status for a fold or a contact. A
+step whose relaxed state jumped off the branch the path followed is halved until the jump is
+located (:data:`LOCATE_VOLTS`), so that the path, like the FEM's, follows its branch to its end. The sweep also stops once the frame is flat (bending angle below ``FLAT_DEG``).
 """
 
 from __future__ import annotations
@@ -16,6 +18,7 @@ from typing import Iterator, Sequence
 import numpy as np
 
 from results import Result
+from results.path import jumped, largest_move
 from scenes import Scene
 from scenes.electric import (FLAT_DEG, check_voltages, driven_at, electrode_coverage, film_coefficients,
                              highest_voltage, mounted_thickness, path_end)
@@ -27,6 +30,18 @@ from .relax import relax
 
 BISECTIONS = 4
 """Halvings of a failed voltage step before the path counts as ended (pull-in)."""
+
+STEP_MOVE = 0.02
+"""Largest nodal move of a voltage step, as a fraction of the side length, at the rate (per V^2)
+of the branch followed: a requested step that would move the state more is taken in parts, so
+that a relaxation starts near the state it should reach (a long one relaxed past a snap into
+another stable state: the gripper at 3 kV, from 2.25 kV)."""
+
+LOCATE_VOLTS = 2.0
+"""A relaxed state that left the branch the path followed (:func:`results.path.jumped`, in V^2)
+is accepted only once the step is this short (V): a longer one is halved, so that the path
+stays on its branch up to where the branch ends, as the FEM's continuation does, instead of
+relaxing into whichever state a long step lands it in."""
 
 
 def voltage_sweep(scene: Scene, voltages: Sequence[float], progress: bool = False,
@@ -60,23 +75,37 @@ def voltage_sweep(scene: Scene, voltages: Sequence[float], progress: bool = Fals
                      max_iterations=st.max_iterations, x_start=x, contact=dm.contact,
                      final_checks=dm.final_checks, force_scale=force_scale)
 
+    side = scene.outline.side_length
+    rate, jumps = None, []  # mm per V^2 of the branch followed (None: not known yet), located jumps
     for v in volts:
-        iterations, wall = 0, 0.0
+        iterations, wall, cap = 0, 0.0, v
         while stop is None and v_now < v:
-            trial, bad = v, None
+            # a step moves the state about STEP_MOVE of the side at the branch's rate, at most
+            trial = min(cap, v if not rate else float(np.sqrt(v_now**2 + STEP_MOVE * side / rate)))
+            bad = None
             for _ in range(BISECTIONS + 1):
                 res = relax_at(trial, state.x)
                 iterations, wall = iterations + res.iterations, wall + res.wall_time
                 if res.converged:
                     break
                 bad, trial = (trial, res), 0.5 * (v_now + trial)
-            if res.converged:
-                state, v_now = res, trial
+            if not res.converged:
+                stop = _stop(bad[1], v_now, bad[0])
                 continue
-            stop = _stop(bad[1], v_now, bad[0])
+            # the energy is linear in V^2: a branch moves at a steady rate per V^2
+            step, move = trial**2 - v_now**2, largest_move(res.x, state.x)
+            left_branch = jumped(move, step, rate, side)
+            if left_branch and trial - v_now > LOCATE_VOLTS:
+                cap = 0.5 * (v_now + trial)  # the state left its branch within the step: locate where
+                continue
+            if left_branch:
+                jumps.append((v_now, trial))
+            rate = None if left_branch else move / step
+            state, v_now, cap = res, trial, v
         out = _finish(state, at(v_now), dm, v_now, flat_area, cover)
         out.iterations, out.wall_time = iterations, wall
         out.info["requested_voltage_V"] = v
+        out.info["voltage_jumps"] = list(jumps)
         if stop is not None:
             out.status, out.converged, out.message = path_end(out.bending_angle, v_now, v, *stop)
             out.info["flat"] = out.status == "flat"
