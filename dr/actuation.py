@@ -23,7 +23,7 @@ from scenes import Scene
 from scenes.electric import (FLAT_DEG, check_voltages, driven_at, electrode_coverage, film_coefficients,
                              highest_voltage, mounted_thickness, path_end)
 
-from .demes import solve
+from .demes import relax_settings, settle, solve
 from .demes_model import build, check_voltage_net
 from .film_cells import film_surface
 from .relax import relax
@@ -66,14 +66,13 @@ def voltage_sweep(scene: Scene, voltages: Sequence[float], progress: bool = Fals
     cover = electrode_coverage(scene, model.nodes[model.dielectric_triangles])
     at = lambda v: driven_at(scene, v, electrodes)  # noqa: E731
     flat_area = model.dielectric_energy(dm.model.nodes)[1]
-    force_scale = 0.01 * scene.membrane.E * dm.cable_area
     v_now, stop = 0.0, None if state.converged else (state.status, state.message)
+
+    settings = relax_settings(scene, dm)
 
     def relax_at(v: float, x: np.ndarray) -> Result:
         model.dielectric_coefficient = film_coefficients(at(v), cover)
-        return relax(model, tol=st.tolerance, mass_safety=st.mass_safety,
-                     max_iterations=st.max_iterations, x_start=x, contact=dm.contact,
-                     final_checks=dm.final_checks, force_scale=force_scale)
+        return relax(model, tol=st.tolerance, x_start=x, **settings)
 
     side = scene.outline.side_length
     rate, jumps = None, []  # mm per V^2 of the branch followed (None: not known yet), located jumps
@@ -102,6 +101,10 @@ def voltage_sweep(scene: Scene, voltages: Sequence[float], progress: bool = Fals
                 jumps.append((v_now, trial))
             rate = None if left_branch else move / step
             state, v_now, cap = res, trial, v
+        if stop is None and v_now > 0.0:  # checked for stability and moved to the equilibrium, as the path's states
+            model.dielectric_coefficient = film_coefficients(at(v_now), cover)
+            settled = settle(at(v_now), dm, state)
+            state = settled if settled.converged else state
         out = _finish(state, at(v_now), dm, v_now, flat_area, cover)
         out.iterations, out.wall_time = iterations, wall
         out.info["requested_voltage_V"] = v

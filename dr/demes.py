@@ -123,7 +123,7 @@ class PathRuns:
         return np.vstack(parts) if parts else self.runs[-1].residual_history
 
 
-def _relax_settings(scene: Scene, dm: DemesModel) -> dict:
+def relax_settings(scene: Scene, dm: DemesModel) -> dict:
     """The settings of every :func:`dr.relax` call of a path but its tolerance and start."""
     st = scene.dr
     force_scale = 0.01 * scene.membrane.E * dm.cable_area  # a cable at 1 % strain
@@ -147,7 +147,7 @@ def _relaxations(scene: Scene, dm: DemesModel, lam: float, *, x_start: np.ndarra
         # on the lift's side (the lift itself need not be that mode: on a rectangle its
         # transient ends on the mirror branch)
         x_start = dm.model.nodes.copy()
-    settings = _relax_settings(scene, dm)
+    settings = relax_settings(scene, dm)
     runs: list[Result] = []
     levels, coarse_failed = PathLevels([lam], [], path_rate, path_move), None
     if coarse is not None:
@@ -326,6 +326,15 @@ class PathLevels:
     snaps: list[tuple[float, float]]
     rate: float | None
     last_move: np.ndarray | None = None
+
+
+def settle(scene: Scene, dm: DemesModel, res: Result) -> Result:
+    """The stable equilibrium DR reports from ``res``, a converged relaxation of ``dm`` under the
+    scene's loads, as it reports a pre-stretch state: off any saddle along its lowest mode, then
+    moved to the discrete equilibrium by Newton steps, with ``info['stable']``, the lowest
+    eigenvalue and the last Newton step's length."""
+    settings = relax_settings(scene, dm)
+    return _off_saddles(scene, dm, res, [res], relax_with=settings, mode=_lowest_mode(dm, res, settings), polish=True)
 
 
 def _lowest_mode(dm: DemesModel, res: Result, relax_with: dict) -> stability.Mode:
