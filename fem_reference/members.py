@@ -27,12 +27,12 @@ def _directors(mesh: MembraneMesh, bond_points: np.ndarray) -> sp.csr_matrix:
     return mesh.interpolation(0.5 * (bond_points[:-1] + bond_points[1:]))[0]
 
 
-def member_rods(scene: Scene, mesh: MembraneMesh, X: np.ndarray, held: np.ndarray) -> list[Rod]:
-    """The rods of the scene's members and of their joints to the outline
-    (:func:`scenes.mesh.member_joints`), on reference positions X (nn, 3) mm with ``held`` (nn,)
-    nodes."""
+def member_rods(scene: Scene, mesh: MembraneMesh, X: np.ndarray, held: np.ndarray, props: RodProperties
+                ) -> list[Rod]:
+    """The rods of the scene's members (section ``props``, the outline's) and of their joints to
+    the outline (:func:`scenes.mesh.member_joints`), on reference positions X (nn, 3) mm with
+    ``held`` (nn,) nodes."""
     fr = scene.frame
-    props = RodProperties(fr.model, fr.EA, fr.EI, fr.EI_strong, fr.GJ)
     joint = RodProperties(fr.model, 0.0, fr.joint_EI, fr.EI_strong, fr.joint_EI)
     rods = [Rod(X, chain, False, held, props, _directors(mesh, bonds))
             for chain, bonds in zip(mesh.members, mesh.member_inner)]

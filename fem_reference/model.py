@@ -87,7 +87,7 @@ class DemesProblem:
         props = RodProperties(fr.model, fr.EA, fr.EI, fr.EI_strong, fr.GJ)
         self.rod = Rod(self.X, chain, True, held, props, self._directors(),
                        self.offset)
-        self.member_rods = member_rods(scene, self.mesh, self.X, held)
+        self.member_rods = member_rods(scene, self.mesh, self.X, held, props)
         self.offset_nodes = np.flatnonzero(~held_chain)  # chain positions moved by the offset
         self.mass = mass_form.assemble(self.mesh.basis).tocsr()
 

@@ -281,9 +281,9 @@ def _base_mesh(scene: Scene, size: SizeField | None = None) -> _Base:
                                                                    ring_crossings(o, member, lever, lever)[1])]
             axis, axis_bond = on_axis_at(member.end[1]), on_axis_at(member.end[1] + lever)
             points, inner, beside = _between(lines.points, (axis, ring_of(at[0])), (axis_bond, ring_of(at[2])), h, size)
-            lines = _Lines(points, lines.centre + [np.concatenate([[axis], inner, [ring_of(at[0]), at[1]]])],
-                           lines.bond_lines + [np.concatenate([[axis_bond], beside, [ring_of(at[2])]])],
-                           lines.bonds + [np.concatenate([[axis_bond], beside, [ring_of(at[2])] * 2])])
+            lines = lines.with_member(points, np.concatenate([[axis], inner, [ring_of(at[0]), at[1]]]),
+                                      np.concatenate([[axis_bond], beside, [ring_of(at[2])]]),
+                                      np.concatenate([[axis_bond], beside, [ring_of(at[2])] * 2]))
         verts, tris = _triangulate(lines.points, nl, np.vstack([np.column_stack([chain[:-1], chain[1:]]),
                                                                 *lines.segments]), h, size)
         on_axis = np.abs(verts[:, 0]) < 1e-9 * o.side_length
@@ -332,6 +332,11 @@ class _Lines(NamedTuple):
     bond_lines: list[np.ndarray]
     bonds: list[np.ndarray]
 
+    def with_member(self, points: np.ndarray, centre: np.ndarray, bond_line: np.ndarray, bonds: np.ndarray
+                    ) -> "_Lines":
+        """These lines and one more member's, on ``points``."""
+        return _Lines(points, self.centre + [centre], self.bond_lines + [bond_line], self.bonds + [bonds])
+
     @property
     def segments(self) -> list[np.ndarray]:
         """The edges (k, 2) the mesh must keep: every chain's."""
@@ -376,9 +381,9 @@ def _member_lines(scene: Scene, members: Sequence[Member], s: np.ndarray, points
                          *ring_crossings(scene.outline, member, lever, lever))]
         ends, bond_ends = (ring_of(at[1]), ring_of(at[2])), (ring_of(at[4]), ring_of(at[5]))
         points, inner, beside = _between(lines.points, ends, bond_ends, scene.spacing, size)
-        lines = _Lines(points, lines.centre + [np.concatenate([[at[0], ends[0]], inner, [ends[1], at[3]]])],
-                       lines.bond_lines + [np.concatenate([[bond_ends[0]], beside, [bond_ends[1]]])],
-                       lines.bonds + [np.concatenate([[bond_ends[0]] * 2, beside, [bond_ends[1]] * 2])])
+        lines = lines.with_member(points, np.concatenate([[at[0], ends[0]], inner, [ends[1], at[3]]]),
+                                  np.concatenate([[bond_ends[0]], beside, [bond_ends[1]]]),
+                                  np.concatenate([[bond_ends[0]] * 2, beside, [bond_ends[1]] * 2]))
     return lines
 
 
