@@ -14,7 +14,8 @@ from results import CellBlock, Result
 from results.path import (AFTER_EVENT, LOCATE, jump_distance, jumped, jumps_message, largest_move, planar,
                           side_of_mode, turned)
 from scenes import Scene
-from scenes.mesh import membrane_mesh, transfer_linear
+from scenes.mesh import membrane_mesh
+from scenes.transfer import transfer_linear
 
 from . import stability
 from .demes_measures import asymmetry, paper_formula_membrane_energy, slack_fractions
@@ -445,7 +446,7 @@ equilibrium (DR and the FEM then agree to it)."""
 def _coarse_to_fine(scene: Scene, x_coarse: np.ndarray, dm: DemesModel) -> np.ndarray:
     """A state of the triangles on refinement 0 (positions of its mesh's nodes, mm) on the finer
     mesh of ``dm``: interpolated linearly in the flat coordinates (the outline's new boundary
-    nodes extrapolated, :func:`scenes.mesh.transfer_linear`), supported coordinates back where
+    nodes extrapolated, :func:`scenes.transfer.transfer_linear`), supported coordinates back where
     the fine model holds them (the refined nodes of a held fillet would move with the film)."""
     x = transfer_linear(membrane_mesh(scene, 0), x_coarse, dm.model.nodes[:, :2])
     fixed = dm.model.fixed

@@ -13,7 +13,8 @@ from results.path import neutral_stiffness
 from scenes import Scene, SceneError
 from scenes.electric import electrode_coverage, film_coefficients, highest_voltage
 from scenes.fields import prestretch_value
-from scenes.mesh import member_joints, membrane_mesh
+from scenes.members import member_joints
+from scenes.mesh import membrane_mesh
 
 from .contact import FilmCrossing, FrameContact, MembraneFold
 from .model import Model

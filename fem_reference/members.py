@@ -6,7 +6,7 @@ on the mesh nodes of its centreline. Each edge's director point is the midpoint 
 points on the member's bond line, ``frame.bond_lever`` to its left (the film is bonded on both
 sides; either turns the section), as the outline's are on its bond line. Where the member meets
 the outline, a joint ties them: the rod's vertex energy, with the flat angle as its rest, on the
-3-node chains of :func:`scenes.mesh.member_joints`. Its stiffness is ``FrameSpec.joint_EI`` out of the
+3-node chains of :func:`scenes.members.member_joints`. Its stiffness is ``FrameSpec.joint_EI`` out of the
 film's plane and the strong-axis EI_s in it.
 """
 
@@ -16,7 +16,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from scenes import Scene
-from scenes.mesh import member_joints
+from scenes.members import member_joints
 
 from .frame import Rod, RodProperties
 from .mesh import MembraneMesh
@@ -30,7 +30,7 @@ def _directors(mesh: MembraneMesh, bond_points: np.ndarray) -> sp.csr_matrix:
 def member_rods(scene: Scene, mesh: MembraneMesh, X: np.ndarray, held: np.ndarray, props: RodProperties
                 ) -> list[Rod]:
     """The rods of the scene's members (section ``props``, the outline's) and of their joints to
-    the outline (:func:`scenes.mesh.member_joints`), on reference positions X (nn, 3) mm with
+    the outline (:func:`scenes.members.member_joints`), on reference positions X (nn, 3) mm with
     ``held`` (nn,) nodes."""
     fr = scene.frame
     joint = RodProperties(fr.model, 0.0, fr.joint_EI, fr.EI_strong, fr.joint_EI)

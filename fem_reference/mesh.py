@@ -14,7 +14,8 @@ import scipy.sparse as sp
 from skfem import Basis, ElementTriP1, ElementTriP2, ElementVector, MeshTri1, MeshTri2
 
 from scenes import Scene, SceneError
-from scenes.mesh import chain_with_midpoints, locate, mid_arc_length, membrane_mesh
+from scenes.mesh import chain_with_midpoints, mid_arc_length, membrane_mesh
+from scenes.transfer import locate
 
 from .errors import FEMError
 

@@ -30,7 +30,7 @@ does `scene.updated(**{"mesh.divisions": 20})` in code. Every field may be left 
 its default) and is checked when the scene is built: a bad value stops with a message naming the
 field and the fix. Units: mm, N, MPa (N/mm^2), V, s; '-' is a ratio or a choice.
 
-This page is generated from the field specs in `scenes/scene.py` by
+This page is generated from the field specs in `scenes/` (`scene.py`, `frame.py`, `electrodes.py`) by
 `python -m scenes.docs > docs/scenes.md`; a test checks that it is up to date.
 """
 

@@ -195,3 +195,59 @@ def midline_fractions(outline: Outline, members: Sequence[Member]) -> np.ndarray
         out.append(0.5 * (right[0] / s_apex + (L - left[0]) / (L - s_apex)))
     return np.array(out)
 
+
+def mirror_plan(members: Sequence[Member], tol: float) -> tuple[list[int], list[int], dict[int, int]] | None:
+    """How the members of a mirror-symmetric frame mesh on its right half: the members right of
+    the axis x = 0, those that cross it square, and each left member's right partner (mirror
+    image); None if the members are not mirror-symmetric so (a member on the axis, crossing it
+    aslant or touching it, or one without its mirror image). ``tol``: mm, the length below which
+    two coordinates are the same."""
+    right, crossing, left = [], [], []
+    for k, m in enumerate(members):
+        x = np.array([m.start[0], m.end[0]])
+        if x.min() > tol:
+            right.append(k)
+        elif x.max() < -tol:
+            left.append(k)
+        elif x.min() < -tol and x.max() > tol and abs(m.start[1] - m.end[1]) < tol and abs(x.sum()) < tol:
+            crossing.append(k)
+        else:
+            return None
+    partner = {}
+    for k in left:
+        mirrored = sorted(map(tuple, np.round(np.array([members[k].start, members[k].end]) * [-1.0, 1.0] / tol)))
+        match = [j for j in right if sorted(map(tuple, np.round(np.array([members[j].start, members[j].end]) / tol)))
+                 == mirrored]
+        if not match:
+            return None
+        partner[k] = match[0]
+    if len(partner) != len(right):
+        return None
+    return right, crossing, partner
+
+
+def member_joints(frame_nodes: np.ndarray, frame_bonds: np.ndarray, members: Sequence[np.ndarray],
+                  member_bonds: Sequence[np.ndarray]) -> list[tuple[np.ndarray, np.ndarray]]:
+    """The joints of the members to the outline, as 3-node rod chains with their nodes' bonds.
+
+    At a member's start J the chain is P, J, m (P the frame node before J, m the member's next
+    node), at its end J' it is m', J', Q (Q the frame node after J'): each runs with the member
+    and with the outline (counter-clockwise), so every edge has its bond on its left. J's bond is
+    the member's. ``frame_bonds`` and ``member_bonds`` are indexed like ``frame_nodes`` and
+    ``members``: bond node ids (DR) or bond points (the FEM) alike.
+
+    Returns
+    -------
+    list of (chain, bonds)
+        Node ids (3,) and the bonds of those nodes (3, ...), two per member.
+    """
+    where = {int(v): k for k, v in enumerate(frame_nodes)}
+    n = len(frame_nodes)
+    out = []
+    for chain, bonds in zip(members, member_bonds):
+        k0, k1 = where[int(chain[0])], where[int(chain[-1])]
+        out.append((np.array([frame_nodes[(k0 - 1) % n], chain[0], chain[1]]),
+                    np.stack([frame_bonds[(k0 - 1) % n], bonds[0], bonds[1]])))
+        out.append((np.array([chain[-2], chain[-1], frame_nodes[(k1 + 1) % n]]),
+                    np.stack([bonds[-2], bonds[-1], frame_bonds[(k1 + 1) % n]])))
+    return out

@@ -27,11 +27,10 @@ from typing import Callable, NamedTuple, Sequence
 import numpy as np
 import triangle as tr
 from matplotlib.path import Path as MplPath
-from matplotlib.tri import Triangulation
 from scipy.spatial import cKDTree
 
 from .errors import SceneError
-from .members import Member, ring_crossings
+from .members import Member, mirror_plan, ring_crossings
 from .scene import Scene
 
 SizeField = Callable[[np.ndarray], np.ndarray]
@@ -247,7 +246,7 @@ def _base_mesh(scene: Scene, size: SizeField | None = None) -> _Base:
             return _spaced(a, b, h)
         return _graded(a, b, lambda y: size(np.column_stack([np.zeros_like(y), y])))
 
-    plan = _mirror_plan(scene) if _is_mirror_symmetric(scene) else None
+    plan = mirror_plan(scene.frame.cross_members, 1e-9 * scene.outline.side_length) if _is_mirror_symmetric(scene) else None
     if plan is not None:
         right_members, crossing, partner = plan
         members = scene.frame.cross_members
@@ -387,37 +386,6 @@ def _member_lines(scene: Scene, members: Sequence[Member], s: np.ndarray, points
     return lines
 
 
-def _mirror_plan(scene: Scene) -> tuple[list[int], list[int], dict[int, int]] | None:
-    """How the members of a mirror-symmetric frame mesh on its right half: the members right of
-    the axis x = 0, those that cross it square, and each left member's right partner (mirror
-    image); None if the members are not mirror-symmetric so (a member on the axis, crossing it
-    aslant or touching it, or one without its mirror image)."""
-    tol = 1e-9 * scene.outline.side_length
-    members = scene.frame.cross_members
-    right, crossing, left = [], [], []
-    for k, m in enumerate(members):
-        x = np.array([m.start[0], m.end[0]])
-        if x.min() > tol:
-            right.append(k)
-        elif x.max() < -tol:
-            left.append(k)
-        elif x.min() < -tol and x.max() > tol and abs(m.start[1] - m.end[1]) < tol and abs(x.sum()) < tol:
-            crossing.append(k)
-        else:
-            return None
-    partner = {}
-    for k in left:
-        mirrored = sorted(map(tuple, np.round(np.array([members[k].start, members[k].end]) * [-1.0, 1.0] / tol)))
-        match = [j for j in right if sorted(map(tuple, np.round(np.array([members[j].start, members[j].end]) / tol)))
-                 == mirrored]
-        if not match:
-            return None
-        partner[k] = match[0]
-    if len(partner) != len(right):
-        return None
-    return right, crossing, partner
-
-
 def _size_field(scene: Scene) -> SizeField | None:
     """The scene's local element size (None: uniform at h0): h0 / mesh.grading on the outline,
     growing by GRADING_SLOPE times the distance from it, up to h0."""
@@ -492,87 +460,3 @@ def membrane_mesh(scene: Scene, refinement: int = 0) -> TriangleMesh:
         members=tuple(c.astype(np.int64) for c in members),
         member_bonds=tuple(c.astype(np.int64) for c in member_bonds),
     )
-
-
-def member_joints(frame_nodes: np.ndarray, frame_bonds: np.ndarray, members: Sequence[np.ndarray],
-                  member_bonds: Sequence[np.ndarray]) -> list[tuple[np.ndarray, np.ndarray]]:
-    """The joints of the members to the outline, as 3-node rod chains with their nodes' bonds.
-
-    At a member's start J the chain is P, J, m (P the frame node before J, m the member's next
-    node), at its end J' it is m', J', Q (Q the frame node after J'): each runs with the member
-    and with the outline (counter-clockwise), so every edge has its bond on its left. J's bond is
-    the member's. ``frame_bonds`` and ``member_bonds`` are indexed like ``frame_nodes`` and
-    ``members``: bond node ids (DR) or bond points (the FEM) alike.
-
-    Returns
-    -------
-    list of (chain, bonds)
-        Node ids (3,) and the bonds of those nodes (3, ...), two per member.
-    """
-    where = {int(v): k for k, v in enumerate(frame_nodes)}
-    n = len(frame_nodes)
-    out = []
-    for chain, bonds in zip(members, member_bonds):
-        k0, k1 = where[int(chain[0])], where[int(chain[-1])]
-        out.append((np.array([frame_nodes[(k0 - 1) % n], chain[0], chain[1]]),
-                    np.stack([frame_bonds[(k0 - 1) % n], bonds[0], bonds[1]])))
-        out.append((np.array([chain[-2], chain[-1], frame_nodes[(k1 + 1) % n]]),
-                    np.stack([bonds[-2], bonds[-1], frame_bonds[(k1 + 1) % n]])))
-    return out
-
-
-# ----------------------------------------------------------------------------- transfer
-
-
-def locate(nodes: np.ndarray, triangles: np.ndarray, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The triangle of a straight-sided mesh that each point lies in, and where.
-
-    A refined mesh's boundary nodes sit on the curved outline, outside the coarser mesh's
-    straight edges: such a point gets the triangle of its nearest boundary edge and the nearest
-    point on that edge as its base (interpolating there and extrapolating with the triangle's
-    gradient over ``points - base`` turns the outline's bulge with the frame).
-
-    Parameters
-    ----------
-    nodes, triangles
-        (nv, 2) flat vertices, mm, and (nt, 3) vertex ids of the mesh.
-    points
-        (m, 2) flat points, mm.
-
-    Returns
-    -------
-    cells, base
-        (m,) triangle ids and (m, 2) base points, mm (the point itself inside the mesh).
-    """
-    cells = Triangulation(nodes[:, 0], nodes[:, 1], triangles).get_trifinder()(points[:, 0], points[:, 1])
-    base = points.astype(float).copy()
-    out = np.flatnonzero(cells < 0)
-    if out.size:
-        # boundary edges: the edges of exactly one triangle, each with that triangle
-        pairs = np.sort(np.vstack([triangles[:, [0, 1]], triangles[:, [1, 2]], triangles[:, [2, 0]]]), axis=1)
-        owner = np.tile(np.arange(len(triangles)), 3)
-        _, first, count = np.unique(pairs, axis=0, return_index=True, return_counts=True)
-        edge = first[count == 1]
-        a, b = nodes[pairs[edge, 0]], nodes[pairs[edge, 1]]
-        ab = b - a
-        u = np.clip(np.einsum("mkj,kj->mk", points[out, None, :] - a[None], ab) / np.einsum("kj,kj->k", ab, ab),
-                    0.0, 1.0)
-        near = a[None] + u[..., None] * ab[None]
-        k = np.argmin(np.linalg.norm(points[out, None, :] - near, axis=2), axis=1)
-        base[out] = near[np.arange(out.size), k]
-        cells[out] = owner[edge[k]]
-    return cells, base
-
-
-def transfer_linear(mesh: TriangleMesh, x: np.ndarray, points: np.ndarray) -> np.ndarray:
-    """Positions (m, 3) at flat points (m, 2) from positions x (nv, 3) at ``mesh``'s vertices:
-    the piecewise-linear interpolation, extended outside the mesh with the affine map of the
-    nearest boundary triangle (:func:`locate`), mm."""
-    cells, _ = locate(mesh.nodes, mesh.triangles, points)
-    tri = mesh.triangles[cells]
-    p0, p1, p2 = (mesh.nodes[tri[:, k]] for k in range(3))
-    # barycentric coordinates of the points (negative outside the triangle: the affine extension)
-    T = np.stack([p1 - p0, p2 - p0], axis=2)  # (m, 2, 2)
-    l12 = np.linalg.solve(T, (points - p0)[:, :, None])[:, :, 0]
-    w = np.column_stack([1.0 - l12.sum(axis=1), l12])
-    return np.einsum("mk,mkc->mc", w, x[tri])

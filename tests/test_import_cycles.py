@@ -1,7 +1,7 @@
 """No import loop among the modules of a package: each module's imports of the package's other
 modules (at any depth in the module, function bodies included, sub-packages too) form a graph
 without cycles; and validation's sub-packages import one way, the CLI on top and common/ at
-the bottom."""
+the bottom. No module is over MAX_MODULE_LINES lines."""
 
 import ast
 import sys
@@ -119,3 +119,14 @@ def test_the_graph_resolves_relative_imports_across_sub_packages(tmp_path, monke
     graph = import_graph("pkg")
     assert graph["report.plan"] == {"common.tables"}
     assert graph["report.validate"] == {"report.plan", "common.tables"}
+
+
+MAX_MODULE_LINES = 500
+"""Longest module of the five packages: a module past it holds more than one job."""
+
+
+@pytest.mark.parametrize("package", PACKAGES)
+def test_no_module_is_over_the_line_limit(package):
+    long = {name: n for name, path in modules(package).items()
+            if (n := len(path.read_text().splitlines())) > MAX_MODULE_LINES}
+    assert not long, f"modules over {MAX_MODULE_LINES} lines (split them along their jobs): {long}"

@@ -13,7 +13,8 @@ import fem_reference
 import scenes
 from dr.kernels import energy
 from fem_reference.model import DemesProblem
-from scenes.mesh import locate, membrane_mesh, transfer_linear
+from scenes.mesh import membrane_mesh
+from scenes.transfer import locate, transfer_linear
 from test_dr_elements import fd_gradient, kernel_gradient
 
 

@@ -17,7 +17,8 @@ import numpy as np
 
 from results import Result
 from scenes import SceneError
-from scenes.mesh import membrane_mesh, transfer_linear
+from scenes.mesh import membrane_mesh
+from scenes.transfer import transfer_linear
 
 SECOND_STATE = 1e-3
 """Frame-curve RMS distance (/side) from the path's state above which a found state is another."""
@@ -43,7 +44,7 @@ def at_once(state: Result) -> Result | None:
     (the paper's way): DR's transient (a Newton from that far off does not converge: measured
     100 iterations at residual 4 on a pentagon); for an FEM state, DR's triangles on the
     scene's refinement-0 mesh, their state interpolated onto the FEM's nodes
-    (:func:`scenes.mesh.transfer_linear`) and polished there by the FEM's Newton. None where
+    (:func:`scenes.transfer.transfer_linear`) and polished there by the FEM's Newton. None where
     DR does not model the scene (a film on the strip's face)."""
     import dr
 
