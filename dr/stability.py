@@ -49,6 +49,10 @@ HILLTOP_ITERATIONS = 8
 MODE_ITERATIONS = 2000
 """Largest number of Lanczos restarts for the lowest mode."""
 
+MODE_DESCENT_STEPS = 20
+"""Largest number of preconditioned descent steps that take a saddle's mode from the assembled
+K to the matrix-free one (two to five reach the differences' noise on the octagon)."""
+
 SHIFT_INVERT_MODES = 3
 """Eigenpairs the second shift-invert search finds (the lowest of them is kept): more than one,
 since the soft end of a DEMES's spectrum comes in near pairs."""
@@ -93,6 +97,7 @@ class _Operator(NamedTuple):
     C: LinearOperator
     free: np.ndarray  # (m,) the DOFs C acts on, of the 3n
     to_displacement: Callable[[np.ndarray], np.ndarray]  # y (m,) -> u = M^-T/2 y (3n,), zero where held
+    to_scaled: Callable[[np.ndarray], np.ndarray]  # r (3n,) -> M^-1/2 r (m,): a residual as C sees it
     stiffness: Callable[[np.ndarray], np.ndarray]  # u (3n,) -> K u (3n,), N/mm
     applications: list[int]  # [applications of C so far]
     mass: sp.csr_matrix  # M (3n, 3n), the masses C is scaled by
@@ -129,9 +134,12 @@ def _operator(model, x: np.ndarray, masses: str) -> _Operator:
         u[free] = y
         return half_t(u) * movable
 
+    def to_scaled(r: np.ndarray) -> np.ndarray:
+        return half(r)[free]
+
     def C(y: np.ndarray) -> np.ndarray:
         applications[0] += 1
-        return half(stiffness(to_displacement(y)))[free]
+        return to_scaled(stiffness(to_displacement(y)))
 
     def assembled() -> tuple[sp.csr_matrix, int] | None:
         held = model.fixed.reshape(n, 3)
@@ -141,7 +149,7 @@ def _operator(model, x: np.ndarray, masses: str) -> _Operator:
         return hessian.stiffness_matrix(P0, x, ~held, pattern, h)
 
     m = free.size
-    return _Operator(LinearOperator((m, m), matvec=C, dtype=float), free, to_displacement, stiffness, applications,
+    return _Operator(LinearOperator((m, m), matvec=C, dtype=float), free, to_displacement, to_scaled, stiffness, applications,
                      mass, assembled)
 
 
@@ -165,12 +173,13 @@ def lowest_mode(model, x: np.ndarray, *, masses: str = "frame", guess: np.ndarra
     op = _operator(model, x, masses)
     m = op.free.size
     start = np.ones(m) if guess is None else np.asarray(guess, dtype=float).reshape(-1)[op.free] + 1e-3
-    found, u, K = _by_inertia(op, start)
+    found, u, K, factor = _by_inertia(op, start)
     if u is not None and u @ op.stiffness(u) < 0.0:
-        # a saddle's mode is the one the step off it follows: taken from C, whose K is the
-        # matrix-free one the step's slopes use (on a hexagon's weak saddle, w = -1.2e-7, the
-        # assembled K's mode led five steps back onto the saddle, C's off it in one)
-        u = None
+        # a saddle's mode is the one the step off it follows: that of the matrix-free K the
+        # step's slopes use (on a hexagon's weak saddle, w = -1.2e-7, the assembled K's mode,
+        # cos 0.99998 to it, led five steps back onto the saddle, the matrix-free one off it in
+        # one), found from the assembled one (:func:`_matrix_free_mode`)
+        u = _matrix_free_mode(op, u, factor)
     if u is None:
         try:
             _, v = eigsh(op.C, k=1, which="SA", tol=MODE_TOLERANCE, v0=start, ncv=min(m, MODE_KRYLOV),
@@ -189,6 +198,50 @@ def lowest_mode(model, x: np.ndarray, *, masses: str = "frame", guess: np.ndarra
     return Mode(w, _shape(u, n), op.applications[0] + 1, found, float(u @ Ku / (u @ u)),
                 float(u @ Ku / (u @ (area * u))) if area.any() else float("nan"),
                 _newton_step(model, x, K, op.free) if K is not None and w > 0.0 else None)
+
+
+def _matrix_free_mode(op: _Operator, u: np.ndarray, factor) -> np.ndarray:
+    """The lowest mode of the matrix-free K (3n,), u^T M u = 1, from ``u``, the assembled K's:
+    preconditioned steepest descent of the Rayleigh quotient (each step the best vector of the
+    plane of the mode and its residual turned by ``factor``, the assembled K - s M's, definite),
+    until the residual (as C sees it) stops halving: the two K differ by the differences' noise,
+    so a few steps take it from the assembled K's mode down to that noise (from 2e-4 to 8e-7 in
+    four steps on the octagon), where Lanczos on C took hundreds to thousands of products (1.5 s
+    a check there). scipy's LOBPCG gets there too, then leaves it in its closing Rayleigh-Ritz
+    step (4e-11 -> 2e-6: the differences are not exactly symmetric)."""
+    f = op.free
+    M = op.mass[f][:, f].tocsr()
+
+    def K(v: np.ndarray) -> np.ndarray:
+        full = np.zeros(op.mass.shape[0])
+        full[f] = v
+        op.applications[0] += 1
+        return op.stiffness(full)[f]
+
+    v = u[f].copy()
+    Kv = K(v)
+    best, kept = np.inf, v
+    for _ in range(MODE_DESCENT_STEPS):
+        Mv = M @ v
+        residual = Kv - (v @ Kv) * Mv
+        full = np.zeros(op.mass.shape[0])
+        full[f] = residual
+        size = float(np.linalg.norm(op.to_scaled(full)))
+        if size > 0.5 * best:
+            break
+        best, kept = size, v
+        p = factor.solve(residual)
+        p -= (Mv @ p) * v  # M-orthogonal to v, M-unit
+        p /= np.sqrt(p @ (M @ p))
+        Kp = K(p)
+        # the lowest vector c of the plane (v, p): K's Rayleigh quotient there, M = I in it
+        plane = np.array([[v @ Kv, 0.5 * (v @ Kp + p @ Kv)], [0.0, p @ Kp]])
+        plane[1, 0] = plane[0, 1]
+        c = np.linalg.eigh(plane)[1][:, 0]
+        v, Kv = c[0] * v + c[1] * p, c[0] * Kv + c[1] * Kp
+    out = np.zeros(op.mass.shape[0])
+    out[f] = kept
+    return out
 
 
 def _newton_step(model, x: np.ndarray, K: sp.csc_matrix, free: np.ndarray) -> np.ndarray | None:
@@ -225,10 +278,10 @@ def _below(K: sp.csr_matrix, M: sp.csr_matrix, shift: float):
     return lu
 
 
-def _by_inertia(op: _Operator, start: np.ndarray) -> tuple[bool, np.ndarray | None, sp.csc_matrix | None]:
+def _by_inertia(op: _Operator, start: np.ndarray) -> tuple[bool, np.ndarray | None, sp.csc_matrix | None, object]:
     """The lowest mode on the assembled K: (converged, u (3n,) with u^T M u = 1, K on the free
-    DOFs), u None where it cannot be had this way (K None where it is not assembled:
-    :data:`MAX_DIFFERENCES`). The shift s starts at minus :data:`NEUTRAL` (a
+    DOFs, the factor of K - s M on them), u None where it cannot be had this way (K None where
+    it is not assembled: :data:`MAX_DIFFERENCES`). The shift s starts at minus :data:`NEUTRAL` (a
     stable state's, where the lowest mode is then the one nearest it) and goes down by decades
     until K - s M is definite (not below :data:`LOWEST_SHIFT`); shift-invert Lanczos at s then
     finds the eigenvalues nearest s, and the lowest found is the lowest only if K - w' M is
@@ -240,7 +293,7 @@ def _by_inertia(op: _Operator, start: np.ndarray) -> tuple[bool, np.ndarray | No
     keeps the lowest of :data:`SHIFT_INVERT_MODES` found."""
     built = op.assembled()
     if built is None:
-        return False, None, None
+        return False, None, None, None
     K, pairs = built
     op.applications[0] += pairs
     f = op.free
@@ -249,7 +302,7 @@ def _by_inertia(op: _Operator, start: np.ndarray) -> tuple[bool, np.ndarray | No
     while (lu := _below(K, M, shift)) is None:
         shift *= 10.0
         if shift < LOWEST_SHIFT:
-            return False, None, K
+            return False, None, K, None
     inverse = LinearOperator(K.shape, matvec=lu.solve, dtype=float)
     noise = np.random.default_rng(0).standard_normal(K.shape[0])
     for v0, modes in ((start, 1), (start / np.linalg.norm(start) + noise / np.linalg.norm(noise), SHIFT_INVERT_MODES)):
@@ -265,8 +318,8 @@ def _by_inertia(op: _Operator, start: np.ndarray) -> tuple[bool, np.ndarray | No
         if _below(K, M, w[lowest] - BELOW * max(abs(w[lowest]), NEUTRAL)) is not None:
             u = np.zeros(op.mass.shape[0])
             u[f] = v[:, lowest] / np.sqrt(v[:, lowest] @ (M @ v[:, lowest]))
-            return found, u, K
-    return False, None, K
+            return found, u, K, lu
+    return False, None, K, None
 
 
 def film_areas(model) -> np.ndarray:
