@@ -42,9 +42,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         if code == INTERRUPTED:
             exit_interrupted()
     if _received:
-        # a library caught the interrupt (as the error it turned it into) and went on: the
-        # command stops all the same (on a fresh clone, a SIGINT 0.3 s in was lost so, and the
-        # command ran to the end with exit code 0)
+        # a library caught the interrupt (as an error of its own) and went on: the command
+        # stops all the same, rather than run to its end and exit 0
         report_interrupt()
         exit_interrupted()
     return code
