@@ -17,7 +17,7 @@ from typing import Callable, NamedTuple
 
 import numpy as np
 import scipy.sparse as sp
-from scipy.sparse.linalg import ArpackNoConvergence, LinearOperator, eigsh, splu
+from scipy.sparse.linalg import ArpackNoConvergence, LinearOperator, cg, eigsh, splu
 
 from . import dielectric, hessian
 from .kernels import Packed, energy, gradient
@@ -48,6 +48,14 @@ HILLTOP_ITERATIONS = 8
 
 MODE_ITERATIONS = 2000
 """Largest number of Lanczos restarts for the lowest mode."""
+
+NEWTON_RTOL = 1e-10
+"""Relative residual to which the Newton step K d = r is solved."""
+
+NEWTON_CG_ITERATIONS = 200
+"""Largest number of conjugate-gradient iterations for the Newton step before K is factorised
+instead (the factor of K - s M makes it a few on a stable state: the preconditioned spectrum
+is w / (w - s), 1 but for the modes softer than |s|)."""
 
 MODE_DESCENT_STEPS = 20
 """Largest number of preconditioned descent steps that take a saddle's mode from the assembled
@@ -197,7 +205,7 @@ def lowest_mode(model, x: np.ndarray, *, masses: str = "frame", guess: np.ndarra
     w = float(u @ Ku)
     return Mode(w, _shape(u, n), op.applications[0] + 1, found, float(u @ Ku / (u @ u)),
                 float(u @ Ku / (u @ (area * u))) if area.any() else float("nan"),
-                _newton_step(model, x, K, op.free) if K is not None and w > 0.0 else None)
+                _newton_step(model, x, K, op.free, factor) if K is not None and w > 0.0 else None)
 
 
 def _matrix_free_mode(op: _Operator, u: np.ndarray, factor) -> np.ndarray:
@@ -244,20 +252,28 @@ def _matrix_free_mode(op: _Operator, u: np.ndarray, factor) -> np.ndarray:
     return out
 
 
-def _newton_step(model, x: np.ndarray, K: sp.csc_matrix, free: np.ndarray) -> np.ndarray | None:
+def _newton_step(model, x: np.ndarray, K: sp.csc_matrix, free: np.ndarray, factor) -> np.ndarray | None:
     """(n, 3) mm: d = K^-1 r on the free DOFs (K their assembled stiffness, definite; r the
     residual, loads less the gradient, at ``x``), the Newton step from ``x`` to the discrete
     equilibrium: how far a relaxation stopped by its residual tolerance is from it, which along
-    a soft mode (r / w) the residual does not show. None where K cannot be factorised."""
+    a soft mode (r / w) the residual does not show. Solved by conjugate gradients on K with the
+    factor of K - s M the stability check made (``factor``, None: not made) as the
+    preconditioner, to :data:`NEWTON_RTOL`, and by a factorisation of K where that does not
+    converge. None where K cannot be factorised."""
     P = model.pack()
     X, G = np.zeros((P.n_total, 3)), np.zeros((P.n_total, 3))
     X[: P.n] = x
     gradient(X, P, G, np.zeros((0, 6)))
     r = (model.loads - G[: P.n]).reshape(-1)[free]
-    try:
-        d = splu(K, permc_spec="MMD_AT_PLUS_A").solve(r)
-    except RuntimeError:  # singular
-        return None
+    info = 1
+    if factor is not None:
+        d, info = cg(K, r, rtol=NEWTON_RTOL, atol=0.0, maxiter=NEWTON_CG_ITERATIONS,
+                     M=LinearOperator(K.shape, matvec=factor.solve, dtype=float))
+    if info != 0:
+        try:
+            d = splu(K, permc_spec="MMD_AT_PLUS_A").solve(r)
+        except RuntimeError:  # singular
+            return None
     step = np.zeros(3 * P.n)
     step[free] = d
     return step.reshape(P.n, 3)
