@@ -182,12 +182,14 @@ def lowest_mode(model, x: np.ndarray, *, masses: str = "frame", guess: np.ndarra
     m = op.free.size
     start = np.ones(m) if guess is None else np.asarray(guess, dtype=float).reshape(-1)[op.free] + 1e-3
     found, u, K, factor = _by_inertia(op, start)
-    if u is not None and u @ op.stiffness(u) < 0.0:
+    Ku = op.stiffness(u) if u is not None else None
+    if u is not None and u @ Ku < 0.0:
         # a saddle's mode is the one the step off it follows: that of the matrix-free K the
         # step's slopes use (on a hexagon's weak saddle, w = -1.2e-7, the assembled K's mode,
         # cos 0.99998 to it, led five steps back onto the saddle, the matrix-free one off it in
         # one), found from the assembled one (:func:`_matrix_free_mode`)
-        u = _matrix_free_mode(op, u, factor)
+        u = _matrix_free_mode(op, u, Ku, factor)
+        Ku = op.stiffness(u)
     if u is None:
         try:
             _, v = eigsh(op.C, k=1, which="SA", tol=MODE_TOLERANCE, v0=start, ncv=min(m, MODE_KRYLOV),
@@ -198,7 +200,7 @@ def lowest_mode(model, x: np.ndarray, *, masses: str = "frame", guess: np.ndarra
                 return Mode(float("nan"), np.zeros((n, 3)), op.applications[0], False, float("nan"), float("nan"))
             v, found = stop.eigenvectors, False
         u = op.to_displacement(v[:, 0] / np.linalg.norm(v[:, 0]))  # u^T M u = 1
-    Ku = op.stiffness(u)
+        Ku = op.stiffness(u)
     area = np.repeat(film_areas(model), 3)
     # the Rayleigh quotients of the mode itself: where K is not smooth (a cable at exactly its
     # rest length, tension-only) the Ritz value of a symmetric solver need not be one
@@ -208,8 +210,9 @@ def lowest_mode(model, x: np.ndarray, *, masses: str = "frame", guess: np.ndarra
                 _newton_step(model, x, K, op.free, factor) if K is not None and w > 0.0 else None)
 
 
-def _matrix_free_mode(op: _Operator, u: np.ndarray, factor) -> np.ndarray:
-    """The lowest mode of the matrix-free K (3n,), u^T M u = 1, from ``u``, the assembled K's:
+def _matrix_free_mode(op: _Operator, u: np.ndarray, Ku: np.ndarray, factor) -> np.ndarray:
+    """The lowest mode of the matrix-free K (3n,), u^T M u = 1, from ``u``, the assembled K's
+    (``Ku``: the matrix-free K u):
     preconditioned steepest descent of the Rayleigh quotient (each step the best vector of the
     plane of the mode and its residual turned by ``factor``, the assembled K - s M's, definite),
     until the residual (as C sees it) stops halving: the two K differ by the differences' noise,
@@ -226,8 +229,7 @@ def _matrix_free_mode(op: _Operator, u: np.ndarray, factor) -> np.ndarray:
         op.applications[0] += 1
         return op.stiffness(full)[f]
 
-    v = u[f].copy()
-    Kv = K(v)
+    v, Kv = u[f].copy(), Ku[f]
     best, kept = np.inf, v
     for _ in range(MODE_DESCENT_STEPS):
         Mv = M @ v

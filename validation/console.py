@@ -37,10 +37,9 @@ def main(argv: Sequence[str] | None = None) -> int:
             raise
         report_interrupt()
         exit_interrupted()
-    if not _received:
-        code = run(argv)
-        if code == INTERRUPTED:
-            exit_interrupted()
+    code = None if _received else run(argv)
+    if code == INTERRUPTED:
+        exit_interrupted()
     if _received:
         # a library caught the interrupt (as an error of its own) and went on: the command
         # stops all the same, rather than run to its end and exit 0
