@@ -12,8 +12,8 @@ from .demes_model import DemesModel
 from .kernels import place_virtual
 from .links import lengths as link_lengths, tensions
 from .model import Model
-from .triangles import (AREA as TRI_AREA, DIRECTIONS as TRI_DIRECTIONS, FAMILY_LAM as TRI_FAMILY_LAM, LAW as TRI_LAW,
-                        LINEAR as TRI_LINEAR, energy as triangle_energy)
+from .triangles import (AREA as TRI_AREA, DIRECTIONS as TRI_DIRECTIONS, FAMILY_LAM as TRI_FAMILY_LAM, FILM as TRI_FILM,
+                        LAW as TRI_LAW, LINEAR as TRI_LINEAR, energy as triangle_energy)
 
 
 def paper_formula_membrane_energy(model: Model, x: np.ndarray) -> float:
@@ -84,14 +84,16 @@ def _triangle_slack(dm: DemesModel, x: np.ndarray) -> tuple[np.ndarray, np.ndarr
     not positive, as the FEM measures it; the neo-Hookean film's principal tensions are not
     measured here (NaN areas)."""
     P = dm.model.pack()
-    if P.tri_idx.shape[0] == 0:
+    film = P.tri_par[:, TRI_FILM] == 1.0
+    idx, grad, par = P.tri_idx[film], P.tri_grad[film], P.tri_par[film]
+    if idx.shape[0] == 0:
         return np.zeros(0), np.zeros(0, bool), np.zeros(0, bool)
-    area = P.tri_par[:, TRI_AREA]
-    if P.tri_par[0, TRI_LAW] != TRI_LINEAR:
+    area = par[:, TRI_AREA]
+    if par[0, TRI_LAW] != TRI_LINEAR:
         return np.full(area.size, np.nan), np.zeros(area.size, bool), np.zeros(area.size, bool)
-    F = np.einsum("tai,taj->tij", x[P.tri_idx], P.tri_grad)  # (t, 3, 2) deformation gradients
+    F = np.einsum("tai,taj->tij", x[idx], grad)  # (t, 3, 2) deformation gradients
     stretch = np.linalg.norm(np.einsum("tij,kj->tki", F, TRI_DIRECTIONS), axis=2)  # (t, 3)
-    slack = P.tri_par[:, list(TRI_FAMILY_LAM)] * stretch - 1.0 <= 0.0
+    slack = par[:, list(TRI_FAMILY_LAM)] * stretch - 1.0 <= 0.0
     return area, slack.any(axis=1), slack.all(axis=1)
 
 

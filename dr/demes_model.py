@@ -169,14 +169,18 @@ def _build_triangles(scene: Scene, lam: float) -> DemesModel:
     mesh = membrane_mesh(scene, scene.fem.refinement)
     nodes = np.column_stack([mesh.nodes, np.zeros(len(mesh.nodes))])
     m = Model(nodes)
-    m.triangles = mesh.triangles
+    film = mesh.film_triangles
+    m.triangles = film
     s_right, s_left = scene.base_region()
     tol = 1e-9 * scene.outline.length
     held = (mesh.frame_s <= s_right + tol) | (mesh.frame_s >= s_left - tol)
     m.support(mesh.frame_nodes[held])
     mem = scene.membrane
-    m.add_triangles(mesh.triangles, E=mem.E, thickness=mem.thickness, prestretch=lam, law=mem.law,
+    m.add_triangles(film, E=mem.E, thickness=mem.thickness, prestretch=lam, law=mem.law,
                     tension_only=mem.tension_only, gent_jm=mem.gent_jm)
+    if mesh.strip_band.any():  # the open windows' strip bands: the strip's material (scenes.windows)
+        m.add_triangles(mesh.band_triangles, E=frame.E, thickness=frame.thickness, prestretch=1.0, law="linear",
+                        tension_only=False, film=False)
     strip = frame.model == "strip"
     m.add_rod(mesh.frame_nodes, EA=frame.EA, EI=frame.EI, closed=True,
               EI_strong=frame.EI_strong if strip else None, GJ=frame.GJ if strip else None,
@@ -187,13 +191,13 @@ def _build_triangles(scene: Scene, lam: float) -> DemesModel:
     for chain, bonds in member_joints(mesh.frame_nodes, mesh.bond_nodes, mesh.members, mesh.member_bonds):
         m.add_rod(chain, EA=0.0, EI=frame.joint_EI, EI_strong=frame.EI_strong if strip else None,
                   GJ=frame.joint_EI if strip else None, bond=bonds if strip else None)
-    m.add_dielectric(mesh.triangles, film_coefficients(scene, electrode_coverage(scene, nodes[mesh.triangles])))
+    m.add_dielectric(film, film_coefficients(scene, electrode_coverage(scene, nodes[film])))
     start = nodes.copy()
     start[:, 2] += np.where(m.fixed[:, 2], 0.0, scene.initial_lift(nodes[:, :2]))
     contact, final_checks = None, []
     if scene.dr.check_contact:
         contact = FrameContact(mesh.frame_nodes, frame.thickness)
-        final_checks = [MembraneFold(mesh.triangles, nodes), FilmCrossing(mesh.triangles, mesh.frame_nodes)]
+        final_checks = [MembraneFold(film, nodes), FilmCrossing(film, mesh.frame_nodes)]
     mirror = _mirror_map(nodes)
     return DemesModel(m, None, start, contact, final_checks, mirror, cable_area(scene, mesh.spacing),
                       mesh.frame_nodes, mesh.frame_s, mesh.spacing, neutral_stiffness(scene),

@@ -39,9 +39,10 @@ LINEAR, NEO_HOOKEAN, GENT = 0, 1, 2
 LAWS = {"linear": LINEAR, "neo-hookean": NEO_HOOKEAN, "gent": GENT}
 
 # columns of Packed.tri_par (JM: Gent's Jm, read by the Gent law only; LAM, LAM1, LAM2: the
-# linear law's pre-stretch along each lattice direction, LAM the incompressible laws' lambda)
-AREA, EH, LAM, TONLY, LAW, JM, LAM1, LAM2 = range(8)
-N_PAR = 8
+# linear law's pre-stretch along each lattice direction, LAM the incompressible laws' lambda;
+# FILM: 1 for film, 0 for a material the pre-stretch does not act on, read by the measures only)
+AREA, EH, LAM, TONLY, LAW, JM, LAM1, LAM2, FILM = range(9)
+N_PAR = 9
 FAMILY_LAM = (LAM, LAM1, LAM2)
 
 _C = math.cos(math.pi / 3.0)
@@ -55,14 +56,15 @@ class Fields(NamedTuple):
 
     tri_idx: np.ndarray  # (t, 3) membrane triangles
     tri_grad: np.ndarray  # (t, 3, 2) flat shape-function gradients, 1/mm
-    tri_par: np.ndarray  # (t, 8) area, E h, lambda, tension-only, law, Gent Jm, lambda_1, lambda_2
+    tri_par: np.ndarray  # (t, 9) area, E h, lambda, tension-only, law, Gent Jm, lambda_1, lambda_2, film
 
 
 class Methods:
     """The :class:`dr.Model` method that adds membrane triangles."""
 
     def add_triangles(self, triangles: np.ndarray, *, E: float, thickness: float, prestretch: float | np.ndarray,
-                      law: str = "linear", tension_only: bool = True, gent_jm: float = np.inf) -> None:
+                      law: str = "linear", tension_only: bool = True, gent_jm: float = np.inf,
+                      film: bool = True) -> None:
         """Add constant-strain membrane triangles (:mod:`dr.triangles`) over node triples.
 
         The reference triangles lie in the plane z = const of the nodes (the flat film); the
@@ -70,6 +72,9 @@ class Methods:
         tensor P (2, 2) in the nodes' x, y (symmetric, positive definite). ``law`` is 'linear' (the link-net
         law, lattice directions at 0, 60, 120 deg from the x axis), 'neo-hookean' or 'gent'
         (with ``gent_jm``, Gent's Jm > 0). Units: E in MPa, the mounted thickness in mm.
+        ``film = False``: a material the film's pre-stretch does not act on (an open window's strip
+        band, :mod:`scenes.windows`); :meth:`scale_membrane_rest_lengths` and
+        :meth:`set_membrane_prestretch` leave its rest state as given.
         """
         t = np.asarray(triangles)
         if t.ndim != 2 or t.shape[1] != 3 or t.shape[0] == 0:
@@ -85,7 +90,7 @@ class Methods:
             raise DRError("a membrane triangle has no area: its three nodes lie on one line")
         self.stored[Fields].append((t, positive("membrane E (MPa)", E), positive("membrane thickness (mm)", thickness),
                                     prestretch_value(prestretch), bool(tension_only), LAWS[law],
-                                    positive("Gent Jm", gent_jm) if law == "gent" else np.inf))
+                                    positive("Gent Jm", gent_jm) if law == "gent" else np.inf, bool(film)))
 
 
 def prestretch_value(prestretch: float | np.ndarray) -> float | np.ndarray:
@@ -95,12 +100,12 @@ def prestretch_value(prestretch: float | np.ndarray) -> float | np.ndarray:
 
 def scale_membrane(stored: list, factor: float) -> list:
     """The triangles of ``stored`` with rest lengths times ``factor`` (pre-stretch over it)."""
-    return [(t, E, h, lam / factor, to, law, jm) for t, E, h, lam, to, law, jm in stored]
+    return [(t, E, h, lam / factor if film else lam, to, law, jm, film) for t, E, h, lam, to, law, jm, film in stored]
 
 
 def prestretch_membrane(stored: list, model, P: np.ndarray) -> list:
     """The triangles of ``stored`` with the pre-stretch tensor ``P`` (2, 2)."""
-    return [(t, E, h, P, to, law, jm) for t, E, h, _, to, law, jm in stored]
+    return [(t, E, h, P if film else lam, to, law, jm, film) for t, E, h, lam, to, law, jm, film in stored]
 
 
 def pack(model, rest) -> Fields:
@@ -109,7 +114,7 @@ def pack(model, rest) -> Fields:
     if not model.stored[Fields]:
         return Fields(np.zeros((0, 3), np.int64), np.zeros((0, 3, 2)), np.zeros((0, N_PAR)))
     idx, grads, pars = [], [], []
-    for t, E, h, lam, tension_only, law, jm in model.stored[Fields]:
+    for t, E, h, lam, tension_only, law, jm, film in model.stored[Fields]:
         g, area = shape_gradients(model.nodes[t][:, :, :2])
         par = np.zeros((t.shape[0], N_PAR))
         par[:, AREA] = area
@@ -124,6 +129,7 @@ def pack(model, rest) -> Fields:
         par[:, TONLY] = float(tension_only)
         par[:, LAW] = law
         par[:, JM] = jm
+        par[:, FILM] = float(film)
         idx.append(t)
         grads.append(g)
         pars.append(par)

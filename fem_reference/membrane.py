@@ -70,8 +70,9 @@ class Membrane:
     Parameters
     ----------
     basis
-        ``Basis(mesh, ElementVector(ElementTriP1() or ElementTriP2(), 3))`` on the flat mesh;
-        its DOF 3 i + c is component c of node i (vertices first, then edge nodes).
+        ``Basis(mesh, ElementVector(ElementTriP1() or ElementTriP2(), 3))`` on the flat mesh, or
+        on some of its elements (``elements=``); its DOF 3 i + c is component c of node i
+        (vertices first, then edge nodes).
     law, E, h, tension_only
         ``membrane.law``, Young's modulus (MPa), mounted thickness (mm), slack links carry nothing.
     jm
@@ -90,7 +91,7 @@ class Membrane:
         locs = basis.doflocs[:, ::3]  # one location per node
         self.X = np.column_stack([locs[0], locs[1], np.zeros(locs.shape[1])])  # (nn, 3) mm
         # the scalar element on the same quadrature: its node numbering is the vector DOF / 3
-        scalar = CellBasis(basis.mesh, basis.elem.elem, quadrature=(basis.X, basis.W))
+        scalar = CellBasis(basis.mesh, basis.elem.elem, quadrature=(basis.X, basis.W), elements=basis.tind)
         self._dofs = np.ascontiguousarray(scalar.element_dofs.T)  # (nel, nb)
         self._grads = np.ascontiguousarray(
             np.stack([phi[0].grad for phi in scalar.basis]).transpose(2, 3, 0, 1))  # (nel, nq, nb, 2)
@@ -116,7 +117,8 @@ class Membrane:
     def centroid_gradient(self, x: np.ndarray) -> np.ndarray:
         """F (nel, 3, 2) at each element's centroid (reference coordinates (1/3, 1/3)) for node
         positions x (nn, 3): one value per element for the film's output fields."""
-        centre = CellBasis(self.basis.mesh, self.basis.elem.elem, quadrature=(np.full((2, 1), 1.0 / 3.0), np.ones(1)))
+        centre = CellBasis(self.basis.mesh, self.basis.elem.elem, quadrature=(np.full((2, 1), 1.0 / 3.0), np.ones(1)),
+                           elements=self.basis.tind)
         grads = np.stack([phi[0].grad[:, :, 0] for phi in centre.basis])  # (nb, 2, nel)
         u = x - self.X
         return np.eye(3, 2) + np.einsum("eai,aje->eij", u[centre.element_dofs.T], grads)

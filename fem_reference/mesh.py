@@ -51,6 +51,9 @@ class MembraneMesh:
         For each of ``frame.members``, the nodes on its centreline from its start to its end
         (with P2 the edge nodes between the vertices), and (m, 2) their points on the member's
         bond line (``scenes.mesh.TriangleMesh.member_bonds``), mm.
+    strip_band
+        (nel,) bool: the elements of the open windows' strip bands, the strip's material
+        (``scenes.mesh.TriangleMesh.strip_band``); the others are film.
     """
 
     mesh: MeshTri1
@@ -66,21 +69,41 @@ class MembraneMesh:
     cell_type: str
     members: tuple[np.ndarray, ...] = ()
     member_inner: tuple[np.ndarray, ...] = ()
+    strip_band: np.ndarray | None = None
+
+    def __post_init__(self) -> None:
+        if self.strip_band is None:
+            self.strip_band = np.zeros(len(self.cells), bool)
 
     @property
     def n_nodes(self) -> int:
         return self.nodes.shape[0]
+
+    @property
+    def film_cells(self) -> np.ndarray:
+        """The film elements' VTK connectivity."""
+        return self.cells[~self.strip_band]
+
+    def part_basis(self, strip: bool) -> Basis | None:
+        """The vector basis on the film's elements (``strip`` False) or the strip bands' (None
+        where there are none); the whole basis where every element is film."""
+        chosen = np.flatnonzero(self.strip_band == strip)
+        if chosen.size == len(self.strip_band):
+            return self.basis
+        if chosen.size == 0:
+            return None
+        return Basis(self.mesh, self.basis.elem, elements=chosen, quadrature=(self.basis.X, self.basis.W))
 
     def interpolation(self, points: np.ndarray, cells: np.ndarray | None = None,
                       gradients: bool = False) -> list[sp.csr_matrix]:
         """Sparse (m, nn) matrices of the shape-function values (and, with ``gradients``, their
         x and y derivatives) at reference points (m, 2) mm, optionally in given cells."""
         if cells is None:
-            try:
-                cells = self.linear.element_finder()(points[:, 0], points[:, 1])
-            except ValueError:  # skfem: 'Point is outside of the mesh'
+            # a point on the rim of an open window is on the mesh's boundary: nearest edge's cell
+            cells, base = locate(self.linear.p.T, self.linear.t.T, points)
+            if np.any(np.linalg.norm(base - points, axis=1) > 1e-9 * self.spacing):
                 raise FEMError("a point of the strip's inner edge falls outside the film mesh: a corner is "
-                               "too sharp for the mesh; raise frame.corner_radius or mesh.divisions") from None
+                               "too sharp for the mesh; raise frame.corner_radius or mesh.divisions")
         scalar = Basis(self.mesh, ELEMENTS[self.element]())
         local = scalar.mapping.invF(points.T[:, :, None], tind=cells)
         fields = [scalar.elem.gbasis(scalar.mapping, local, k, tind=cells)[0]
@@ -128,7 +151,9 @@ def build_mesh(scene: Scene, refinement: int = 0, element: str = "P1") -> Membra
     shared = membrane_mesh(scene, refinement)
     mesh = MeshTri1(shared.nodes.T.copy(), shared.triangles.T.copy())
     linear = mesh
-    if not np.array_equal(np.sort(shared.frame_nodes), np.sort(mesh.boundary_nodes())):
+    # the boundary is the outline, and the open windows' rims
+    boundary, holes = mesh.boundary_nodes(), shared.strip_band.any()
+    if not np.isin(shared.frame_nodes, boundary).all() or (not holes and boundary.size != shared.frame_nodes.size):
         raise FEMError("the film mesh's boundary does not follow the outline (a corner too tight for the "
                        "mesh spacing, or the strip's inner edge crossing itself); raise frame.corner_radius "
                        "or mesh.divisions")
@@ -143,6 +168,7 @@ def build_mesh(scene: Scene, refinement: int = 0, element: str = "P1") -> Membra
         inner_of[b_vert] = nodes_inner
         quad = MeshTri2.from_mesh(mesh)
         facets = quad.boundary_facets()
+        facets = facets[np.isfinite(s_of[quad.facets[:, facets]]).all(axis=0)]  # the outline's, not a hole's
         a, b = quad.facets[:, facets]
         s_mid = mid_arc_length(s_of[a], s_of[b], L)
         doflocs = quad.doflocs.copy()
@@ -181,4 +207,5 @@ def build_mesh(scene: Scene, refinement: int = 0, element: str = "P1") -> Membra
         cell_type=cell_type,
         members=tuple(np.asarray(c, np.int64) for c in members),
         member_inner=member_inner,
+        strip_band=shared.strip_band,
     )

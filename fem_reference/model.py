@@ -62,18 +62,23 @@ class DemesProblem:
         self.scene = scene
         self.mesh: MembraneMesh = build_mesh(scene, refinement, element)
         mem = scene.membrane
-        self.membrane = Membrane(self.mesh.basis, mem.law, mem.E, mem.thickness, mem.tension_only, mem.gent_jm,
+        film = self.mesh.part_basis(strip=False)
+        self.membrane = Membrane(film, mem.law, mem.E, mem.thickness, mem.tension_only, mem.gent_jm,
                                  path=scene.prestretch_path)
-        lin = self.mesh.linear  # the elements' straight triangles, (nel, 3, 2)
-        self.electrode_cover = electrode_coverage(scene, np.transpose(lin.p[:, lin.t], (2, 1, 0)))
+        band = self.mesh.part_basis(strip=True)
+        fr = scene.frame
+        # the open windows' strip bands: the strip's material, unstretched (scenes.windows)
+        self.strip = None if band is None else Membrane(band, "linear", fr.E, fr.thickness, False)
+        lin = self.mesh.linear  # the film elements' straight triangles, (nel, 3, 2)
+        t = lin.t if film.tind is None else lin.t[:, film.tind]
+        self.electrode_cover = electrode_coverage(scene, np.transpose(lin.p[:, t], (2, 1, 0)))
         # at the scene's voltages; set .coefficient (film_coefficients) to change them
-        self.dielectric = Dielectric(self.mesh.basis, film_coefficients(scene, self.electrode_cover))
+        self.dielectric = Dielectric(film, film_coefficients(scene, self.electrode_cover))
         self.X = self.membrane.X
         nn = self.X.shape[0]
         self.n_dofs = 3 * nn
         self.lam = scene.prestretch
 
-        fr = scene.frame
         chain, s = self.mesh.frame_nodes, self.mesh.frame_s
         s_right, s_left = scene.base_region()
         tol = 1e-9 * scene.outline.length
@@ -137,7 +142,8 @@ class DemesProblem:
         x = y.reshape(-1, 3)
         xm, _, _ = self._film_positions(x, order=0)
         rod = sum(sum(r.evaluate(x, order=0)[0].values()) for r in (self.rod, *self.member_rods))
-        return self.membrane.energy(xm, self.lam) + self.dielectric.energy(xm) + rod
+        strip = 0.0 if self.strip is None else self.strip.energy(x, 1.0)
+        return self.membrane.energy(xm, self.lam) + strip + self.dielectric.energy(xm) + rod
 
     def evaluate(self, y: np.ndarray, order: int = 2) -> Evaluation:
         """Energy parts, gradient and (order 2) tangent at positions y (3 nn,)."""
@@ -150,6 +156,11 @@ class DemesProblem:
             g_m = g_m + g_d
             K_m = K_m + K_d if order >= 2 else None
         rod_e, g_f, K_f = self.rod.evaluate(x, order)
+        if self.strip is not None:  # the strip's own material: no offset (members have none), energy in the membrane's
+            e_s, g_s, K_s = self.strip.evaluate(x, 1.0, order)
+            e_m += e_s
+            g_f = g_f + g_s
+            K_f = K_f + K_s if order >= 2 else None
         for rod in self.member_rods:
             e, g_r, K_r = rod.evaluate(x, order)
             rod_e = {k: rod_e[k] + e[k] for k in rod_e}

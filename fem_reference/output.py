@@ -82,14 +82,17 @@ def slack_fractions(problem: DemesProblem, y: np.ndarray) -> tuple[float, float]
 
 
 def blocks(problem: DemesProblem, y: np.ndarray, scene: Scene) -> dict[str, CellBlock]:
-    """VTK cell blocks: membrane elements with their fields, frame edges with section forces
-    (the members' in a block of their own); ``scene`` is the state's (its pre-stretch and voltage)."""
+    """VTK cell blocks: film elements with their fields, the open windows' strip bands, frame
+    edges with section forces (the members' in a block of their own); ``scene`` is the state's
+    (its pre-stretch and voltage)."""
     x = y.reshape(-1, 3)
     mesh = problem.mesh
     out = {
-        "membrane": CellBlock(mesh.cell_type, mesh.cells, membrane_fields(problem, y, scene)),
+        "membrane": CellBlock(mesh.cell_type, mesh.film_cells, membrane_fields(problem, y, scene)),
         "frame": CellBlock("line", problem.rod.edges, problem.rod.section_forces(x)),
     }
+    if problem.strip is not None:
+        out["strip_band"] = CellBlock(mesh.cell_type, mesh.cells[mesh.strip_band])
     members = [rod for rod in problem.member_rods if rod.props.EA > 0]  # the joints have no section of their own
     if members:
         forces = [rod.section_forces(x) for rod in members]

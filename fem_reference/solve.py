@@ -67,7 +67,7 @@ class Continuation:
         self.lift = problem.initial_guess() - problem.initial_guess(lift=False)
         self.snaps: list[tuple[float, float]] = []  # (last state on the branch, state snapped to)
         self.up = np.sign(self.scene.perturbation.amplitude) or 1.0  # + : apex up
-        centroids = problem.X[problem.mesh.cells[:, :3], :2].mean(axis=1)
+        centroids = problem.X[problem.mesh.film_cells[:, :3], :2].mean(axis=1)
         self.band = self.scene.outline.distance(centroids) < self.scene.frame.lever
         self.start_records: list[StepRecord] = []  # the Newton solve of the state at lambda = 1, if any
         self.start_failure: Outcome | None = None
@@ -174,14 +174,15 @@ class Continuation:
         if found is not None:
             return found
         frame = mesh.frame_nodes
-        crossing = film_crossing(x, mesh.cells[:, :3], np.stack([frame, np.roll(frame, -1)], axis=1))
+        crossing = film_crossing(x, mesh.film_cells[:, :3], np.stack([frame, np.roll(frame, -1)], axis=1))
         if crossing is not None:
             return crossing
         # a slack film has no stiffness and its wrinkles are arbitrary: only taut folds count;
         # and the band bonded to the strip is left out: the film leaves the strip's inner edge
         # at an angle (the strip's torque acts there), which is not a fold of the free film
         tension = pb.membrane.principal_tensions(pb.film_positions(y), pb.lam)[0][0].mean(axis=1)
-        taut = (tension > 1e-3 * tension.max()) & ~self.band
+        taut = np.zeros(len(mesh.cells), bool)  # the strip bands are no film
+        taut[~mesh.strip_band] = (tension > 1e-3 * tension.max()) & ~self.band
         return membrane_fold(x, mesh.cells[:, :3], mesh.linear.f2t, taut)
 
     # ------------------------------------------------------------------ the path

@@ -111,7 +111,7 @@ def make_result(problem: DemesProblem, out: Outcome, requested: float, wall: flo
         point_data={},
         info=_info(problem, out, requested, steps_total, stability, compressed, slack),
     )
-    res.check_crossings(mesh.cells[:, :3], contact_checked=True)  # the path stops at every contact
+    res.check_crossings(mesh.film_cells[:, :3], contact_checked=True)  # the path stops at every contact
     return res
 
 

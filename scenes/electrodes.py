@@ -84,9 +84,11 @@ def electrodes_from_list(data: Any) -> tuple[ElectrodeSpec, ...]:
     return tuple(out)
 
 
-def check_electrodes(electrodes: Sequence[ElectrodeSpec], outline: Outline, voltage: float) -> None:
+def check_electrodes(electrodes: Sequence[ElectrodeSpec], outline: Outline, voltage: float,
+                     open_regions: Sequence[shapely.Polygon] = ()) -> None:
     """Electrodes a scene can model: unique names, simple polygons that cover film and do not
-    overlap, and no whole-film ``loading.voltage`` beside them. Raises :class:`SceneError`."""
+    overlap or reach into an open window (``open_regions``, :mod:`scenes.windows`), and no
+    whole-film ``loading.voltage`` beside them. Raises :class:`SceneError`."""
     if not electrodes:
         return
     if voltage > 0:
@@ -108,6 +110,13 @@ def check_electrodes(electrodes: Sequence[ElectrodeSpec], outline: Outline, volt
         if film.intersection(p).area <= OVERLAP * p.area:
             raise SceneError(f"electrodes[{k}].region ({e.name!r}) covers no film: it lies outside the "
                              "frame's outline; give its polygon in the flat scene's x, y (mm)")
+        for j, window in enumerate(open_regions):
+            if window.intersection(p).area > OVERLAP * p.area:
+                x, y = window.representative_point().coords[0]
+                raise SceneError(
+                    f"electrodes[{k}].region ({e.name!r}) reaches into the open window round [{x:.3g}, {y:.3g}] "
+                    f"(frame.open_windows[{j}]), which has no film: trim the region to the covered windows, or "
+                    "cover that window with film")
         polygons.append(p)
     for i in range(len(polygons)):
         for j in range(i + 1, len(polygons)):

@@ -193,12 +193,14 @@ def vertex_list(name: str, value: Any) -> tuple[tuple[float, float], ...] | None
     usage = f"{name} must be a list of 3 to {MAX_VERTICES} [x, y] points in mm, e.g. [[0, 0], [40, 0], [20, 30]]"
     if not isinstance(value, (list, tuple)) or not 3 <= len(value) <= MAX_VERTICES:
         raise SceneError(usage)
-    pts = []
-    for k, p in enumerate(value):
-        if not isinstance(p, (list, tuple)) or len(p) != 2:
-            raise SceneError(f"{name}[{k}] = {show_value(p)}: {usage}")
-        pts.append((between(-1e5, 1e5)(f"{name}[{k}][0]", p[0]), between(-1e5, 1e5)(f"{name}[{k}][1]", p[1])))
-    return tuple(pts)
+    return tuple(_point(f"{name}[{k}]", p, usage) for k, p in enumerate(value))
+
+
+def _point(name: str, value: Any, usage: str) -> tuple[float, float]:
+    """One [x, y] point (mm), |x|, |y| <= 1e5; ``usage`` says what the list holds."""
+    if not isinstance(value, (list, tuple)) or len(value) != 2:
+        raise SceneError(f"{name} = {show_value(value)}: {usage}")
+    return between(-1e5, 1e5)(f"{name}[0]", value[0]), between(-1e5, 1e5)(f"{name}[1]", value[1])
 
 
 MAX_MEMBERS = 32
@@ -217,14 +219,18 @@ def member_list(name: str, value: Any) -> tuple[tuple[tuple[float, float], tuple
     for k, member in enumerate(value):
         if not isinstance(member, (list, tuple)) or len(member) != 2:
             raise SceneError(f"{name}[{k}] = {show_value(member)}: {usage}")
-        ends = []
-        for j, p in enumerate(member):
-            if not isinstance(p, (list, tuple)) or len(p) != 2:
-                raise SceneError(f"{name}[{k}][{j}] = {show_value(p)}: {usage}")
-            ends.append((between(-1e5, 1e5)(f"{name}[{k}][{j}][0]", p[0]),
-                         between(-1e5, 1e5)(f"{name}[{k}][{j}][1]", p[1])))
-        out.append(tuple(ends))
+        out.append(tuple(_point(f"{name}[{k}][{j}]", p, usage) for j, p in enumerate(member)))
     return tuple(out)
+
+
+@checked(f"up to {MAX_MEMBERS + 1} [x, y] points, |x|, |y| <= 1e5")
+def point_list(name: str, value: Any) -> tuple[tuple[float, float], ...]:
+    usage = f"{name} must be a list of up to {MAX_MEMBERS + 1} [x, y] points in mm, e.g. [[0, 45]]"
+    if value is None:
+        return ()
+    if not isinstance(value, (list, tuple)) or len(value) > MAX_MEMBERS + 1:
+        raise SceneError(usage)
+    return tuple(_point(f"{name}[{k}]", p, usage) for k, p in enumerate(value))
 
 
 def spec(default: Any, check: Check | None, unit: str = "", doc: str = "", bounds: str | None = None) -> Any:

@@ -10,9 +10,11 @@ from typing import Any
 import numpy as np
 
 from .errors import SceneError
-from .fields import Section, between, boolean, member_list, non_negative, one_of, optional, positive, spec, vertex_list
+from .fields import (Section, between, boolean, member_list, non_negative, one_of, optional, point_list, positive, spec,
+                     vertex_list)
 from .geometry import Outline, equilateral_triangle
 from .members import Member, frame_members, midline_fractions
+from .windows import open_windows
 
 
 @dataclass(frozen=True)
@@ -21,9 +23,10 @@ class FrameSpec(Section):
     with windows adds cross-members (frame.members): straight strips of the same section, each
     from a point of the outline to another, in the flat scene's x, y (the outline's frame: the
     side from the first vertex to the second along +x, centred on the origin). They cut the film
-    into windows, all covered by film; each member is bonded to the film and joined rigidly to the
-    outline where it meets it (docs/elements.md, 'Frames with windows'). An [[electrodes]] region
-    per window drives the windows one by one."""
+    into windows, covered by film except those frame.open_windows names by a point inside each;
+    each member is bonded to the film and joined rigidly to the outline where it meets it
+    (docs/elements.md, 'Frames with windows'). An [[electrodes]] region per covered window drives
+    the windows one by one."""
 
     _prefix = "frame"
     outline: str = spec("triangle", one_of("triangle", "polygon"), "",
@@ -62,6 +65,10 @@ class FrameSpec(Section):
                         "point of the outline to another, [[x1, y1], [x2, y2]]; [] is one window",
                         bounds=f"{member_list.bounds}; inside it, at 30 deg or more to it, apart by frame.width, "
                         "every window wider than frame.width")
+    open_windows: Any = spec((), point_list, "mm",
+                             "a point inside each window left without film, [x, y]; [] covers every window",
+                             bounds=f"{point_list.bounds}; each inside its own window, more than frame.width / 2 "
+                             "from its strips; film in one window at least")
 
     def __post_init__(self) -> None:
         super().__post_init__()
@@ -83,7 +90,7 @@ class FrameSpec(Section):
                 f"frame.bond_lever = {self.bond_lever:g} mm must not exceed frame.width = "
                 f"{self.width:g} mm: the film is bonded across the strip, not beyond it"
             )
-        _ = self.cross_members  # build (and so check) the outline and its members now
+        _ = self.open_regions  # build (and so check) the outline, its members and open windows now
         if self.members and self.film_offset:
             raise SceneError("frame.film_offset = true is not modelled with frame.members (a film on one "
                              "face of crossing strips); set frame.film_offset = false")
@@ -99,6 +106,12 @@ class FrameSpec(Section):
     def cross_members(self) -> tuple[Member, ...]:
         """The checked cross-members in the outline's frame (empty: one window)."""
         return frame_members(self.geometry, self.members, self.width, self.lever)
+
+    @cached_property
+    def open_regions(self) -> tuple:
+        """The open windows' regions (shapely polygons, centreline to centreline, mm), in the
+        order of ``open_windows``."""
+        return open_windows(self.geometry, self.cross_members, self.width, self.open_windows)
 
     @cached_property
     def segment_bounds(self) -> np.ndarray | None:

@@ -32,6 +32,7 @@ from scipy.spatial import cKDTree
 from .errors import SceneError
 from .members import Member, mirror_plan, ring_crossings
 from .scene import Scene
+from .windows import opened
 
 SizeField = Callable[[np.ndarray], np.ndarray]
 """Local element size (m,) mm at flat points (m, 2) mm."""
@@ -71,6 +72,9 @@ class TriangleMesh:
         frame nodes), a line of mesh edges; and for each of them its bond node, on the member's
         bond line ``frame.bond_lever`` to its left (where the member crosses the outline's
         strip, the bond line's end, on the outline's bond line).
+    strip_band
+        (nt,) bool: the triangles of an open window's strip bands, the strip's own material
+        (:mod:`scenes.windows`); the others are film. All False where every window has film.
     """
 
     nodes: np.ndarray
@@ -81,6 +85,21 @@ class TriangleMesh:
     spacing: float
     members: tuple[np.ndarray, ...] = ()
     member_bonds: tuple[np.ndarray, ...] = ()
+    strip_band: np.ndarray | None = None
+
+    def __post_init__(self) -> None:
+        if self.strip_band is None:
+            object.__setattr__(self, "strip_band", np.zeros(len(self.triangles), bool))
+
+    @property
+    def film_triangles(self) -> np.ndarray:
+        """(nf, 3) the film's triangles."""
+        return self.triangles[~self.strip_band]
+
+    @property
+    def band_triangles(self) -> np.ndarray:
+        """(nb, 3) the open windows' strip-band triangles."""
+        return self.triangles[self.strip_band]
 
     @property
     def frame_bond(self) -> np.ndarray:
@@ -450,7 +469,7 @@ def membrane_mesh(scene: Scene, refinement: int = 0) -> TriangleMesh:
     flip = e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0] < 0
     tris[flip] = tris[flip][:, ::-1]
     order = np.argsort(b_s)
-    return TriangleMesh(
+    mesh = TriangleMesh(
         nodes=verts,
         triangles=tris.astype(np.int64),
         frame_nodes=b_ids[order].astype(np.int64),
@@ -460,3 +479,5 @@ def membrane_mesh(scene: Scene, refinement: int = 0) -> TriangleMesh:
         members=tuple(c.astype(np.int64) for c in members),
         member_bonds=tuple(c.astype(np.int64) for c in member_bonds),
     )
+    return opened(mesh, scene.outline, scene.frame) if scene.frame.open_regions else mesh
+

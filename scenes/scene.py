@@ -286,7 +286,7 @@ class Scene:
                 f"(mesh.divisions x mesh.grading x 2^fem.refinement), above {2 * MAX_DIVISIONS}: lower "
                 "mesh.grading, mesh.divisions or fem.refinement"
             )
-        check_electrodes(self.electrodes, self.outline, self.loading.voltage)
+        check_electrodes(self.electrodes, self.outline, self.loading.voltage, self.frame.open_regions)
 
     @property
     def prestretch(self) -> float:

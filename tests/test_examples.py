@@ -51,6 +51,17 @@ def test_electrode_example_drives_one_half(run_example):
     assert angle[("DR, left driven", 0.0)] > dr_left > whole
 
 
+def test_open_window_example_leaves_the_middle_segment_bare(run_example, tmp_path):
+    printed = run_example("open_window.py")
+    turns = {label: [float(t) for t in found] for label, *found in
+             re.findall(r"^(DR|FEM) +at 1.15: turns base +([0-9.-]+), middle \(open\) +([0-9.-]+), tip +([0-9.-]+)",
+                        printed, re.M)}
+    assert set(turns) == {"DR", "FEM"} and printed.count("converged") == 2
+    assert turns["DR"] == pytest.approx(turns["FEM"], abs=0.1)
+    assert abs(turns["FEM"][1]) < min(turns["FEM"][0], turns["FEM"][2])
+    assert (tmp_path / "out/open_window/fem_1.15.vtu").exists()
+
+
 def test_solve_example_curls_and_writes_a_picture(run_example, tmp_path):
     printed = run_example("solve_paper_demes.py")
     angles = [float(a) for a in re.findall(r"bending angle +([0-9.-]+) deg", printed)]

@@ -19,8 +19,9 @@ from hypothesis import strategies as st
 import dr
 import scenes
 from dr.demes_model import build as build_dr
-from dr.kernels import gradient as dr_gradient
+from dr.kernels import energy as dr_energy, gradient as dr_gradient
 from fem_reference.model import DemesProblem
+from scenes.members import windows
 from scenes.mesh import membrane_mesh
 from scenes import DemesError, SceneError
 from validation.cli import main
@@ -168,12 +169,15 @@ their lengths."""
 
 
 @settings(max_examples=200 if LONG else 25)
-@given(polygon=star_polygons, ends=member_ends, shift=st.sampled_from([0.0, 0.0, 0.5, -3.0]))
-def test_members_on_any_polygon_are_meshed_and_modelled_or_refused_by_name(polygon, ends, shift):
+@given(polygon=star_polygons, ends=member_ends, shift=st.sampled_from([0.0, 0.0, 0.5, -3.0]),
+       opened=st.integers(0, 7))
+def test_members_on_any_polygon_are_meshed_and_modelled_or_refused_by_name(polygon, ends, shift, opened):
     """Cross-members drawn between random points of a random polygon's outline (some moved off
     it): the scene refuses them with a SceneError naming frame.members, or the mesh holds every
     member as a straight line of edges from frame node to frame node with its bond nodes at the
-    lever, and neither the FEM's model nor DR's carries a force in the flat state at no pre-stretch."""
+    lever, and neither the FEM's model nor DR's carries a force in the flat state at no pre-stretch.
+    With one of its windows open (``opened``), the same, and both solvers' flat pre-stretched
+    energies are one discrete problem's."""
     vertices = star_vertices(*polygon)
     try:
         outline = BASE.updated(**{"frame.outline": "polygon", "frame.vertices": vertices, "frame.corner_radius": 4.0,
@@ -196,6 +200,11 @@ def test_members_on_any_polygon_are_meshed_and_modelled_or_refused_by_name(polyg
         event("SceneError")
         return
     event(f"{len(mesh.members)} members meshed")
+    found = windows(scene.outline, scene.frame.cross_members, scene.frame.width)
+    point = found[opened % len(found)].buffer(-0.5 * scene.frame.width).representative_point()
+    scene = scene.updated(**{"frame.open_windows": [[point.x, point.y]]})
+    mesh = membrane_mesh(scene, 1)
+    assert mesh.strip_band.any() and not mesh.strip_band.all()
     for chain, bonds in zip(mesh.members, mesh.member_bonds):
         p = mesh.nodes[chain]
         u = (p[-1] - p[0]) / np.linalg.norm(p[-1] - p[0])
@@ -215,6 +224,11 @@ def test_members_on_any_polygon_are_meshed_and_modelled_or_refused_by_name(polyg
     G = np.zeros_like(X)
     dr_gradient(X, packed, G, np.zeros((0, 6)))
     assert np.abs(G[:packed.n][~model.fixed]).max() < 1e-9
+    # pre-stretched: the flat film's energy is the same in both (the strip bands store none)
+    stretched = scene.updated(**{"dr.membrane_net": "triangles", "prestretch": 1.2})
+    packed = build_dr(stretched, 1.2).model.pack()
+    problem = DemesProblem(stretched, 0, "P1")
+    assert float(sum(dr_energy(X, packed))) == pytest.approx(problem.energy(problem.X.ravel()), rel=1e-12)
 
 
 toml_texts = st.one_of(
