@@ -23,7 +23,8 @@ from scenes import Scene
 from scenes.electric import (FLAT_DEG, check_voltages, driven_at, electrode_coverage, film_coefficients,
                              highest_voltage, mounted_thickness, path_end)
 
-from .demes import relax_settings, settle, solve
+from .demes import solve
+from .saddles import relax_settings, settle
 from .demes_model import build, check_voltage_net
 from .film_cells import film_surface
 from .relax import relax

@@ -22,5 +22,5 @@ for label, states in (("DR", dr.sweep(scene, [1.15])), ("FEM", fem_reference.swe
     res = list(states)[-1]
     base, middle, tip = res.segment_turns
     print(f"{label:3s} at {res.prestretch}: turns base {base:7.3f}, middle (open) {middle:7.3f}, tip {tip:7.3f} deg, "
-          f"energy {res.energy['total']:.6f} N mm, {res.status}")
-print("written", res.write_vtk("out/open_window/fem_1.15.vtu"))
+          f"energy {res.energy['total']:.8f} N mm, apex {res.branch}, {res.status}")
+print("written", res.write_vtk("out/open_window/fem_1.15.vtu"), "with the blocks", ", ".join(res.blocks))

@@ -22,7 +22,8 @@ class FrameSpec(Section):
     """The frame strip: outline of its centreline, cross-section, material and model. A frame
     with windows adds cross-members (frame.members): straight strips of the same section, each
     from a point of the outline to another, in the flat scene's x, y (the outline's frame: the
-    side from the first vertex to the second along +x, centred on the origin). They cut the film
+    side from the first vertex to the second along +x, centred on the origin), two of them joined
+    rigidly where they cross. They cut the film
     into windows, covered by film except those frame.open_windows names by a point inside each;
     each member is bonded to the film and joined rigidly to the outline where it meets it
     (docs/elements.md, 'Frames with windows'). An [[electrodes]] region per covered window drives
@@ -62,8 +63,10 @@ class FrameSpec(Section):
 
     members: Any = spec((), member_list, "mm",
                         "cross-members: straight strips of the frame's section across the film, each from a "
-                        "point of the outline to another, [[x1, y1], [x2, y2]]; [] is one window",
-                        bounds=f"{member_list.bounds}; inside it, at 30 deg or more to it, apart by frame.width, "
+                        "point of the outline to another, [[x1, y1], [x2, y2]]; two may cross (a rigid junction of "
+                        "four strips); [] is one window",
+                        bounds=f"{member_list.bounds}; inside it, at 30 deg or more to it and to a member it crosses, "
+                        "crossings inside the film and apart, members that do not cross apart by frame.width, "
                         "every window wider than frame.width")
     open_windows: Any = spec((), point_list, "mm",
                              "a point inside each window left without film, [x, y]; [] covers every window",

@@ -3,12 +3,15 @@
 A member is the centreline of a strip of the frame's section, from one point of the outline to
 another (``frame.members``, in the flat scene's x, y: the outline's frame, base along +x centred on
 the origin). It is bonded to the film on both sides and joined rigidly to the outline where it
-meets it (a T junction of three strips). The members cut the region inside the outline into
-windows, each covered by film; ``[[electrodes]]`` regions can follow them.
+meets it (a T junction of three strips). Two members may cross: a rigid junction of four strips
+(:class:`Crossing`). The members cut the region inside the outline into windows, covered by film
+but those ``frame.open_windows`` names (:mod:`scenes.windows`); ``[[electrodes]]`` regions can
+follow them.
 
 What a scene can model is checked here, each refusal naming the member and the fix: both ends on
-the outline, the member inside it, meeting it at :data:`MIN_ANGLE_DEG` or more, no two members
-crossing or sharing an end, and every window wider than the strip.
+the outline, the member inside it, meeting the outline and any member it crosses at
+:data:`MIN_ANGLE_DEG` or more, crossings inside the film and apart, members that do not cross
+apart, and every window wider than the strip.
 """
 
 from __future__ import annotations
@@ -110,11 +113,20 @@ def frame_members(outline: Outline, ends: Sequence, width: float, lever: float, 
     for i in range(len(members)):
         for j in range(i + 1, len(members)):
             a, b = members[i], members[j]
-            if a.line.distance(b.line) < width:
-                what = "cross" if a.line.intersects(b.line) else "come closer than the strip width"
+            if a.line.intersects(b.line):
+                _check_crossing(outline, a, b, width, lever, f"{name}[{i}] and {name}[{j}]")
+            elif a.line.distance(b.line) < width:
                 raise SceneError(
-                    f"{name}[{i}] and {name}[{j}] {what}: members are separate strips joined to the outline "
-                    f"only; keep them frame.width = {width:g} mm apart or more")
+                    f"{name}[{i}] and {name}[{j}] come closer than the strip width: members that do not cross "
+                    f"are kept frame.width = {width:g} mm apart or more")
+    found = crossings(members, lever)
+    for p in range(len(found)):
+        for q in range(p + 1, len(found)):
+            gap = float(np.linalg.norm(found[p].points[0] - found[q].points[0]))
+            if gap < 2.0 * width:
+                raise SceneError(
+                    f"{name}: the crossings of members {found[p].pair} and {found[q].pair} are {gap:.3g} mm apart: "
+                    f"a junction joins two members; keep crossings 2 x frame.width = {2 * width:g} mm apart or more")
     for k, window in enumerate(windows(outline, members, width)):
         film = window.buffer(-0.5 * width)
         if film.is_empty or film.area <= 0.0:
@@ -124,6 +136,61 @@ def frame_members(outline: Outline, ends: Sequence, width: float, lever: float, 
                 f"{width:g} mm): no film would be left between its strips; move the members apart or "
                 "away from the corners")
     return tuple(members)
+
+
+@dataclass(frozen=True)
+class Crossing:
+    """Where members ``pair`` = (i, j), i < j, cross (a rigid junction of four strips), mm: the
+    points (4, 2) where i's centreline meets j's centreline and j's bond line, and where i's bond
+    line (``frame.bond_lever`` to its left) meets j's centreline and j's bond line."""
+
+    pair: tuple[int, int]
+    points: np.ndarray
+
+    def on(self, k: int) -> tuple[tuple[int, int], tuple[int, int]]:
+        """Which of :attr:`points` lie on member k's centreline and which on its bond line."""
+        return ((0, 1), (2, 3)) if k == self.pair[0] else ((0, 2), (1, 3))
+
+
+def crossings(members: Sequence[Member], lever: float) -> list[Crossing]:
+    """Every crossing of two members' centrelines, with its four line crossings (:class:`Crossing`)."""
+    out = []
+    for i in range(len(members)):
+        for j in range(i + 1, len(members)):
+            a, b = members[i], members[j]
+            if not a.line.intersects(b.line):
+                continue
+            points = [_meet(a, b, sa, sb, lever) for sa in (0.0, 1.0) for sb in (0.0, 1.0)]
+            out.append(Crossing((i, j), np.array(points)))
+    return out
+
+
+def _left(member: Member) -> np.ndarray:
+    return np.array([-member.direction[1], member.direction[0]])
+
+
+def _meet(a: Member, b: Member, shift_a: float, shift_b: float, lever: float) -> np.ndarray:
+    """Where a's centreline moved ``shift_a`` levers to its left meets b's moved ``shift_b``."""
+    pa, pb = a.start + shift_a * lever * _left(a), b.start + shift_b * lever * _left(b)
+    matrix = np.column_stack([a.direction, -b.direction])
+    t = np.linalg.solve(matrix, pb - pa)
+    return pa + t[0] * a.direction
+
+
+def _check_crossing(outline: Outline, a: Member, b: Member, width: float, lever: float, what: str) -> None:
+    """Refuse a crossing of ``a`` and ``b`` that a four-strip junction does not model: too shallow,
+    or so near the outline that its strips' bands overlap the outline's."""
+    sine = abs(float(a.direction[0] * b.direction[1] - a.direction[1] * b.direction[0]))
+    if sine < np.sin(np.radians(MIN_ANGLE_DEG)):
+        raise SceneError(f"{what} cross at {np.degrees(np.arcsin(min(sine, 1.0))):.3g} deg: members cross at "
+                         f"{MIN_ANGLE_DEG:g} deg or more")
+    points = np.array([_meet(a, b, sa, sb, lever) for sa in (0.0, 1.0) for sb in (0.0, 1.0)])
+    near = float(outline.distance(points).min())
+    if near < lever + width:
+        x, y = points[0]
+        raise SceneError(f"{what} cross at [{x:.3g}, {y:.3g}], where their strips come {near:.3g} mm from the "
+                         "outline: a junction of four strips lies inside the film, frame.bond_lever + frame.width = "
+                         f"{lever + width:g} mm or more from the outline; move the members' ends")
 
 
 def ring_crossings(outline: Outline, member: Member, lever: float, shift: float) -> tuple[float, float]:
@@ -183,7 +250,7 @@ def midline_fractions(outline: Outline, members: Sequence[Member]) -> np.ndarray
     fractions of the way from the base midpoint to the apex, ``results.metrics.bending_angle``):
     the fraction of that way, the mean of its two ends' (m,), in the members' order. None unless
     every member runs from one side to the other (windows in a row, base to apex)."""
-    if not members:
+    if not members or any(a.line.intersects(b.line) for k, a in enumerate(members) for b in members[k + 1:]):
         return None
     L, s_apex = outline.length, outline.apex_arc_length()
     out = []
@@ -200,8 +267,10 @@ def mirror_plan(members: Sequence[Member], tol: float) -> tuple[list[int], list[
     """How the members of a mirror-symmetric frame mesh on its right half: the members right of
     the axis x = 0, those that cross it square, and each left member's right partner (mirror
     image); None if the members are not mirror-symmetric so (a member on the axis, crossing it
-    aslant or touching it, or one without its mirror image). ``tol``: mm, the length below which
-    two coordinates are the same."""
+    aslant or touching it, or one without its mirror image) or two of them cross. ``tol``: mm, the
+    length below which two coordinates are the same."""
+    if crossings(members, 0.0):
+        return None
     right, crossing, left = [], [], []
     for k, m in enumerate(members):
         x = np.array([m.start[0], m.end[0]])
@@ -228,13 +297,16 @@ def mirror_plan(members: Sequence[Member], tol: float) -> tuple[list[int], list[
 
 def member_joints(frame_nodes: np.ndarray, frame_bonds: np.ndarray, members: Sequence[np.ndarray],
                   member_bonds: Sequence[np.ndarray]) -> list[tuple[np.ndarray, np.ndarray]]:
-    """The joints of the members to the outline, as 3-node rod chains with their nodes' bonds.
+    """The joints of the members to the outline and to each other, as 3-node rod chains with
+    their nodes' bonds.
 
     At a member's start J the chain is P, J, m (P the frame node before J, m the member's next
     node), at its end J' it is m', J', Q (Q the frame node after J'): each runs with the member
     and with the outline (counter-clockwise), so every edge has its bond on its left. J's bond is
-    the member's. ``frame_bonds`` and ``member_bonds`` are indexed like ``frame_nodes`` and
-    ``members``: bond node ids (DR) or bond points (the FEM) alike.
+    the member's. Where members i < j cross at their shared node C, the chain is i's node before
+    C, C, j's node after it, C's bond i's: with each member's own rod running through C, this
+    ties the four strips rigidly. ``frame_bonds`` and ``member_bonds`` are indexed like
+    ``frame_nodes`` and ``members``: bond node ids (DR) or bond points (the FEM) alike.
 
     Returns
     -------
@@ -250,4 +322,10 @@ def member_joints(frame_nodes: np.ndarray, frame_bonds: np.ndarray, members: Seq
                     np.stack([frame_bonds[(k0 - 1) % n], bonds[0], bonds[1]])))
         out.append((np.array([chain[-2], chain[-1], frame_nodes[(k1 + 1) % n]]),
                     np.stack([bonds[-2], bonds[-1], frame_bonds[(k1 + 1) % n]])))
+    for i in range(len(members)):
+        for j in range(i + 1, len(members)):
+            for c in np.intersect1d(members[i][1:-1], members[j][1:-1]):
+                a, b = int(np.flatnonzero(members[i] == c)[0]), int(np.flatnonzero(members[j] == c)[0])
+                out.append((np.array([members[i][a - 1], c, members[j][b + 1]]),
+                            np.stack([member_bonds[i][a - 1], member_bonds[i][a], member_bonds[j][b + 1]])))
     return out

@@ -22,7 +22,7 @@ graded mesh as it does a uniform one.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Callable, NamedTuple, Sequence
+from typing import Callable, NamedTuple
 
 import numpy as np
 import triangle as tr
@@ -30,12 +30,10 @@ from matplotlib.path import Path as MplPath
 from scipy.spatial import cKDTree
 
 from .errors import SceneError
+from .member_lines import SizeField, graded, member_lines, rows_between, spaced
 from .members import Member, mirror_plan, ring_crossings
 from .scene import Scene
 from .windows import opened
-
-SizeField = Callable[[np.ndarray], np.ndarray]
-"""Local element size (m,) mm at flat points (m, 2) mm."""
 
 GRADING_SLOPE = 0.5
 """Growth of a graded mesh's element size with the distance from the outline (mm per mm).
@@ -44,10 +42,6 @@ and 1 give shape errors 0.057 %, 0.064 %, 0.071 % on 6603, 6120, 5700 free DOFs.
 
 GRADING_PASSES = 12
 """Most refinement passes of a graded mesh (each refines the triangles above their local size)."""
-
-GRADING_SAMPLES = 257
-"""Samples of the local spacing along a boundary piece or the symmetry axis."""
-
 
 @dataclass(frozen=True)
 class TriangleMesh:
@@ -126,7 +120,7 @@ def _boundary_arc_lengths(landmarks: np.ndarray, start: float, stop: float, h: f
     parts = []
     for a, b in zip(marks[:-1], marks[1:]):
         if h_of is not None:
-            parts.append(_graded(a, b, h_of))
+            parts.append(graded(a, b, h_of))
             continue
         n = max(1, int(np.ceil((b - a) / h - 1e-9)))
         parts.append(a + (b - a) * np.arange(n) / n)
@@ -194,25 +188,9 @@ def _areas(v: np.ndarray, t: np.ndarray) -> np.ndarray:
     return 0.5 * np.abs(e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0])
 
 
-def _graded(a: float, b: float, h_of: Callable[[np.ndarray], np.ndarray]) -> np.ndarray:
-    """Points from a (included) towards b (excluded) at the local spacing h_of(t) (mm) of the
-    parameter t: equal steps of the integral of 1/h, the fewest at most h apart."""
-    t = np.linspace(a, b, GRADING_SAMPLES)
-    density = np.abs(b - a) / (GRADING_SAMPLES - 1) / h_of(t)
-    cum = np.concatenate([[0.0], np.cumsum(0.5 * (density[1:] + density[:-1]))])
-    n = max(1, int(np.ceil(cum[-1] - 1e-9)))
-    return np.interp(cum[-1] * np.arange(n) / n, cum, t)
-
-
 def _bond_points(scene: Scene, s: np.ndarray) -> np.ndarray:
     """Points ``frame.bond_lever`` inside the outline at arc lengths s: the bond line."""
     return scene.outline.inner_offset(s, scene.frame.lever)
-
-
-def _spaced(a: float, b: float, h: float) -> np.ndarray:
-    """Points from a (included) towards b (excluded) at most h apart."""
-    n = max(1, int(np.ceil(abs(b - a) / h - 1e-9)))
-    return a + (b - a) * np.arange(n) / n
 
 
 def _snap(s: np.ndarray, landmarks: np.ndarray, L: float) -> np.ndarray:
@@ -262,8 +240,8 @@ def _base_mesh(scene: Scene, size: SizeField | None = None) -> _Base:
 
     def spaced_on_axis(a: float, b: float) -> np.ndarray:
         if size is None:
-            return _spaced(a, b, h)
-        return _graded(a, b, lambda y: size(np.column_stack([np.zeros_like(y), y])))
+            return spaced(a, b, h)
+        return graded(a, b, lambda y: size(np.column_stack([np.zeros_like(y), y])))
 
     plan = mirror_plan(scene.frame.cross_members, 1e-9 * scene.outline.side_length) if _is_mirror_symmetric(scene) else None
     if plan is not None:
@@ -290,7 +268,7 @@ def _base_mesh(scene: Scene, size: SizeField | None = None) -> _Base:
         i_top, i_bottom = on_axis_at(H - lever), on_axis_at(lever)
         chain = np.concatenate([[i_bottom], nl + np.arange(len(right) - 1), [i_top]])
         ring_of = (lambda i: nl + i - 1)  # the bond node of right-half frame node i > 0
-        lines = _member_lines(scene, [members[k] for k in right_members], s_right, np.vstack([loop, bond[1:-1]]),
+        lines = member_lines(scene, [members[k] for k in right_members], s_right, np.vstack([loop, bond[1:-1]]),
                               ring_of, size)
         for k in crossing:  # its right half, from the axis to its right end
             member = members[k] if members[k].end[0] > 0 else Member(members[k].end, members[k].start,
@@ -298,7 +276,7 @@ def _base_mesh(scene: Scene, size: SizeField | None = None) -> _Base:
             at = [int(np.argmin(np.abs(s_right - sj))) for sj in (ring_crossings(o, member, lever, 0.0)[1], member.s_end,
                                                                    ring_crossings(o, member, lever, lever)[1])]
             axis, axis_bond = on_axis_at(member.end[1]), on_axis_at(member.end[1] + lever)
-            points, inner, beside = _between(lines.points, (axis, ring_of(at[0])), (axis_bond, ring_of(at[2])), h, size)
+            points, inner, beside = rows_between(lines.points, (axis, ring_of(at[0])), (axis_bond, ring_of(at[2])), h, size)
             lines = lines.with_member(points, np.concatenate([[axis], inner, [ring_of(at[0]), at[1]]]),
                                       np.concatenate([[axis_bond], beside, [ring_of(at[2])]]),
                                       np.concatenate([[axis_bond], beside, [ring_of(at[2])] * 2]))
@@ -335,74 +313,10 @@ def _base_mesh(scene: Scene, size: SizeField | None = None) -> _Base:
     m = s.size
     ring = m + np.arange(m)
     points = np.vstack([o.evaluate(s)[0], _bond_points(scene, s)])
-    lines = _member_lines(scene, scene.frame.cross_members, s, points, lambda i: m + i, size)
+    lines = member_lines(scene, scene.frame.cross_members, s, points, lambda i: m + i, size)
     segments = np.vstack([np.column_stack([ring, np.roll(ring, -1)]), *lines.segments])
     verts, tris = _triangulate(lines.points, m, segments, h, size)
     return _Base(verts, tris, np.arange(m), s, ring, tuple(lines.centre), tuple(lines.bonds))
-
-
-class _Lines(NamedTuple):
-    """Members meshed so far: the points and, per member, its centreline chain, its bond line
-    (a chain of mesh edges) and each centreline node's bond node."""
-
-    points: np.ndarray
-    centre: list[np.ndarray]
-    bond_lines: list[np.ndarray]
-    bonds: list[np.ndarray]
-
-    def with_member(self, points: np.ndarray, centre: np.ndarray, bond_line: np.ndarray, bonds: np.ndarray
-                    ) -> "_Lines":
-        """These lines and one more member's, on ``points``."""
-        return _Lines(points, self.centre + [centre], self.bond_lines + [bond_line], self.bonds + [bonds])
-
-    @property
-    def segments(self) -> list[np.ndarray]:
-        """The edges (k, 2) the mesh must keep: every chain's."""
-        return [np.column_stack([c[:-1], c[1:]]) for c in self.centre + self.bond_lines]
-
-
-def _between(points: np.ndarray, centre: tuple[int, int], bond: tuple[int, int], h: float,
-             size: SizeField | None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """New points on the straight line between the points ``centre`` at the spacing h (or the
-    local size), and as many on the parallel line between the points ``bond`` at the same
-    fractions of its length: beside the centreline's up to a shift along the line, which the
-    section's direction does not see. Returns the points and the ids of both rows."""
-    a, b = points[centre[0]], points[centre[1]]
-    length = float(np.linalg.norm(b - a))
-    if size is None:
-        along = _spaced(0.0, 1.0, h / length)[1:]
-    else:
-        along = _graded(0.0, 1.0, lambda t: size(a + t[:, None] * (b - a)) / length)[1:]
-    c, d = points[bond[0]], points[bond[1]]
-    ids = len(points) + np.arange(2 * along.size)
-    new = np.vstack([points, a + along[:, None] * (b - a), c + along[:, None] * (d - c)])
-    return new, ids[:along.size], ids[along.size:]
-
-
-def _member_lines(scene: Scene, members: Sequence[Member], s: np.ndarray, points: np.ndarray,
-                  ring_of: Callable[[int], int], size: SizeField | None, lines: _Lines | None = None) -> _Lines:
-    """Each member's centreline and bond line as chains of new points, with each centreline
-    node's bond node.
-
-    The centreline runs from its start's frame node to its end's through the bond nodes where it
-    crosses the bond ring; its bond line runs ``frame.bond_lever`` to its left between the two
-    bond nodes where that line crosses the ring (frame nodes are placed so that their bond nodes
-    lie there, :func:`scenes.members.ring_crossings`), a node beside each inner node of the centreline
-    (:func:`_between`). The two nodes of each end share the bond line's end. ``s`` are the frame
-    nodes' arc lengths (ids 0, 1, ...) and ``ring_of(i)`` frame node i's bond node.
-    """
-    L, lever = scene.outline.length, scene.frame.lever
-    lines = lines or _Lines(points, [], [], [])
-    for member in members:
-        at = [int(np.argmin(np.abs(np.mod(s - sj + 0.5 * L, L) - 0.5 * L)))
-              for sj in (member.s_start, *ring_crossings(scene.outline, member, lever, 0.0), member.s_end,
-                         *ring_crossings(scene.outline, member, lever, lever))]
-        ends, bond_ends = (ring_of(at[1]), ring_of(at[2])), (ring_of(at[4]), ring_of(at[5]))
-        points, inner, beside = _between(lines.points, ends, bond_ends, scene.spacing, size)
-        lines = lines.with_member(points, np.concatenate([[at[0], ends[0]], inner, [ends[1], at[3]]]),
-                                  np.concatenate([[bond_ends[0]], beside, [bond_ends[1]]]),
-                                  np.concatenate([[bond_ends[0]] * 2, beside, [bond_ends[1]] * 2]))
-    return lines
 
 
 def _size_field(scene: Scene) -> SizeField | None:
