@@ -330,10 +330,14 @@ def _ramp(start: float, stop: float, step: float) -> list[float]:
 
 
 def _members(dm: DemesModel) -> dict[str, CellBlock]:
-    """The cross-members' edges as their own VTK block (their links are in the frame's too)."""
-    if not dm.members:
-        return {}
-    return {"members": CellBlock("line", np.vstack([np.column_stack([c[:-1], c[1:]]) for c in dm.members]))}
+    """The cross-members' edges as their own VTK block (their links are in the frame's too), and
+    the open windows' strip bands (scenes.windows), as the FEM writes them."""
+    out = {}
+    if dm.members:
+        out["members"] = CellBlock("line", np.vstack([np.column_stack([c[:-1], c[1:]]) for c in dm.members]))
+    if len(dm.strip_band):
+        out["strip_band"] = CellBlock("triangle", dm.strip_band)
+    return out
 
 
 def sweep(scene: Scene, prestretches: Sequence[float], progress: bool = False,

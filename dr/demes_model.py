@@ -4,7 +4,7 @@ the symmetry-breaking lift, the contact checks and the model's mirror map."""
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 from scipy.spatial import cKDTree
@@ -39,6 +39,7 @@ class DemesModel:
     neutral: float  # N/mm^3, results.path.neutral_stiffness
     symmetries: list[Symmetry]  # the model's (dr.symmetry.model_symmetries)
     members: tuple[np.ndarray, ...] = ()  # node ids along each cross-member (scenes.mesh.TriangleMesh.members)
+    strip_band: np.ndarray = field(default_factory=lambda: np.zeros((0, 3), np.int64))  # open windows' bands
 
 
 def check_voltage_net(scene: Scene, voltage: float) -> None:
@@ -201,7 +202,7 @@ def _build_triangles(scene: Scene, lam: float) -> DemesModel:
     mirror = _mirror_map(nodes)
     return DemesModel(m, None, start, contact, final_checks, mirror, cable_area(scene, mesh.spacing),
                       mesh.frame_nodes, mesh.frame_s, mesh.spacing, neutral_stiffness(scene),
-                      model_symmetries(m, mirror), mesh.members)
+                      model_symmetries(m, mirror), mesh.members, mesh.band_triangles)
 
 
 def _mirror_map(nodes: np.ndarray) -> np.ndarray | None:
