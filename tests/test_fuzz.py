@@ -21,7 +21,7 @@ import scenes
 from dr.demes_model import build as build_dr
 from dr.kernels import energy as dr_energy, gradient as dr_gradient
 from fem_reference.model import DemesProblem
-from scenes.members import windows
+from scenes.members import crossings, member_joints, windows
 from scenes.mesh import membrane_mesh
 from scenes import DemesError, SceneError
 from validation.cli import main
@@ -229,6 +229,53 @@ def test_members_on_any_polygon_are_meshed_and_modelled_or_refused_by_name(polyg
     packed = build_dr(stretched, 1.2).model.pack()
     problem = DemesProblem(stretched, 0, "P1")
     assert float(sum(dr_energy(X, packed))) == pytest.approx(problem.energy(problem.X.ravel()), rel=1e-12)
+
+
+@settings(max_examples=100 if LONG else 12)
+@given(width=st.floats(30.0, 80.0), height=st.floats(30.0, 80.0),
+       ends=st.tuples(*[st.floats(0.2, 0.8)] * 4), turn=st.sampled_from([0, 1, 2, 3]))
+def test_crossing_members_are_meshed_and_modelled_or_refused_by_name(width, height, ends, turn):
+    """Two members across a rectangle, one between its left and right sides and one between its
+    base and top (at random points, the rectangle's vertices listed from a random corner): refused
+    with a SceneError naming frame.members, or crossing, the four points where their lines meet
+    are nodes of both members' lines, a joint ties them, and both solvers' models of the flat
+    state carry no force at no pre-stretch and store the same energy pre-stretched."""
+    corners = [[-width / 2, 0.0], [width / 2, 0.0], [width / 2, height], [-width / 2, height]]
+    corners = corners[turn:] + corners[:turn]
+    a, b, c, d = ends
+    members = [[[-width / 2, a * height], [width / 2, b * height]], [[(c - 0.5) * width, 0.0], [(d - 0.5) * width, height]]]
+    try:
+        scene = BASE.updated(**{"frame.outline": "polygon", "frame.vertices": corners, "frame.corner_radius": 4.0,
+                                "mesh.divisions": 6, "frame.members": members, "prestretch": 1.0,
+                                "dr.membrane_net": "triangles"})
+        mesh = membrane_mesh(scene, 1)
+    except SceneError as e:
+        assert "frame.members" in str(e) or "bond line" in str(e), str(e)
+        event("SceneError")
+        return
+    found = crossings(scene.frame.cross_members, scene.frame.lever)
+    event(f"{len(found)} crossings")
+    for cross in found:
+        for k in cross.pair:
+            for line, quarter in zip((mesh.members[k], mesh.member_bonds[k]), cross.on(k)):
+                near = np.linalg.norm(mesh.nodes[line][:, None] - cross.points[quarter, :][None], axis=2).min(axis=0)
+                assert near.max() < 1e-9 * scene.outline.side_length
+    joints = member_joints(mesh.frame_nodes, mesh.bond_nodes, mesh.members, mesh.member_bonds)
+    assert len(joints) == 4 + len(found)
+    problem = DemesProblem(scene, 0, "P1")
+    flat = problem.evaluate(problem.X.ravel(), order=1)
+    assert np.abs(flat.gradient.reshape(-1, 3)[~problem.held]).max() < 1e-9
+    model = build_dr(scene, 1.0).model
+    packed = model.pack()
+    X = np.zeros((packed.n_total, 3))
+    X[:packed.n] = model.nodes
+    G = np.zeros_like(X)
+    dr_gradient(X, packed, G, np.zeros((0, 6)))
+    assert np.abs(G[:packed.n][~model.fixed]).max() < 1e-9
+    stretched = scene.updated(prestretch=1.2)
+    problem = DemesProblem(stretched, 0, "P1")
+    assert float(sum(dr_energy(X, build_dr(stretched, 1.2).model.pack()))) == pytest.approx(
+        problem.energy(problem.X.ravel()), rel=1e-12)
 
 
 toml_texts = st.one_of(
