@@ -60,30 +60,45 @@ def plotter(**kwargs):
     return pv.Plotter(off_screen=True, **kwargs)
 
 
-def membrane_surface(res: Result):
-    """The membrane as a triangulated ``pyvista.PolyData`` (Delaunay of the flat reference,
-    triangles outside the frame outline dropped)."""
+FILM_BLOCKS = ("membrane_surface", "membrane")
+"""The result blocks that hold the film's triangles (DR's, the FEM's), the first found drawn."""
+
+
+def membrane_surface(res: Result, block: str | None = None):
+    """The membrane as a triangulated ``pyvista.PolyData``: the film's triangles (corners of
+    quadratic ones), or the cells of ``block``; where a result has none, the Delaunay
+    triangulation of the flat reference, triangles outside the frame outline dropped."""
     import pyvista as pv
     from scipy.spatial import Delaunay
 
-    xy = res.x0[:, :2]
-    tri = Delaunay(xy).simplices
-    centroid = xy[tri].mean(axis=1)
-    keep = res.scene.outline.contains(centroid) if res.scene is not None else np.ones(len(tri), bool)
-    tri = tri[keep]
+    names = [block] if block is not None else [n for n in FILM_BLOCKS if n in res.blocks]
+    found = res.blocks.get(names[0]) if names else None
+    if found is not None and found.cell_type in ("triangle", "triangle6"):
+        tri = np.asarray(found.connectivity)[:, :3]
+    else:
+        xy = res.x0[:, :2]
+        tri = Delaunay(xy).simplices
+        centroid = xy[tri].mean(axis=1)
+        keep = res.scene.outline.contains(centroid) if res.scene is not None else np.ones(len(tri), bool)
+        tri = tri[keep]
     faces = np.hstack([np.full((tri.shape[0], 1), 3), tri]).ravel()
     return pv.PolyData(res.x, faces)
 
 
 def add_state(pl, res: Result, offset: Sequence[float] = (0.0, 0.0, 0.0)) -> None:
-    """Add the membrane (light blue) and the frame centreline with its members (dark red) of
-    ``res``, shifted by ``offset`` (mm), to the plotter's current view."""
+    """Add the membrane (light blue) and the frame centreline with its members and the open
+    windows' strip bands (dark red) of ``res``, shifted by ``offset`` (mm), to the plotter's
+    current view."""
     import pyvista as pv
 
     shift = np.asarray(offset, float)
     surf = membrane_surface(res)
     surf.points = surf.points + shift
     pl.add_mesh(surf, color="lightsteelblue", show_edges=False, opacity=0.85)
+    if "strip_band" in res.blocks:  # an open window's strips, their inner halves
+        band = membrane_surface(res, "strip_band")
+        band.points = band.points + shift
+        pl.add_mesh(band, color="darkred", show_edges=False)
     frame = res.frame_curve() + shift
     pl.add_mesh(pv.lines_from_points(np.vstack([frame, frame[:1]])), color="darkred", line_width=4)
     members = res.blocks.get("members")

@@ -54,3 +54,26 @@ def test_a_machine_that_cannot_render_is_told_what_to_install(monkeypatch):
         headless_window()
     monkeypatch.setenv("DISPLAY", ":0")
     assert headless_window() is None
+
+
+def test_a_picture_draws_the_film_it_has_and_leaves_an_open_window_open():
+    """The surface drawn is the film's own triangles: none inside the gripper's open middle window
+    (inside its bond lines, y from 32 to 60 between x = -10 and 10), and the window's strip
+    bands drawn apart, all of them in the window."""
+    import fem_reference
+    import scenes
+    from results.render import membrane_surface
+
+    scene = scenes.load("multisegment_gripper")
+    kept = [e for e in scene.to_dict()["electrodes"] if e["name"] != "middle"]
+    scene = scene.updated(**{"frame.open_windows": [[0, 45]], "electrodes": kept, "mesh.divisions": 6,
+                             "fem.element": "P1"})
+    res = list(fem_reference.sweep(scene, [1.02]))[-1]
+    flat = res.x0[:, :2]
+    for block, inside_window in (("membrane", False), ("strip_band", True)):
+        faces = membrane_surface(res, block).faces.reshape(-1, 4)[:, 1:]
+        centroid = flat[faces].mean(axis=1)
+        in_window = (np.abs(centroid[:, 0]) < 12) & (centroid[:, 1] > 30) & (centroid[:, 1] < 60)
+        assert len(faces) and (in_window.all() if inside_window else not in_window.any()), block
+    drawn = membrane_surface(res).faces.reshape(-1, 4)[:, 1:]
+    assert np.array_equal(drawn, res.blocks["membrane"].connectivity[:, :3])
