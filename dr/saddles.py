@@ -54,7 +54,7 @@ def lowest_mode(dm: DemesModel, res: Result, relax_with: dict) -> stability.Mode
 
 
 def off_saddles(scene: Scene, dm: DemesModel, res: Result, runs: list[Result], *, relax_with: dict,
-                 mode: stability.Mode, unstable: bool = False, polish: bool = False) -> Result:
+                mode: stability.Mode, unstable: bool = False, polish: bool = False) -> Result:
     """A stable equilibrium from the converged state ``res``: while its lowest
     mode (:func:`dr.stability.lowest_mode`) has a negative stiffness, step along it, apex to
     the side the scene's perturbation asks for, and relax again (each relaxation appended to

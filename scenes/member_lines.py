@@ -130,19 +130,18 @@ def _crossing_stations(points: np.ndarray, found: Sequence[Crossing], first: int
     on its bond line alone. Crossing c's points have ids ``first + 4 c`` on."""
     a, b = points[ends[0]], points[ends[1]]
     c, d = points[bond_ends[0]], points[bond_ends[1]]
-    u = (b - a) / np.linalg.norm(b - a)
+    length, bond_length = float(np.linalg.norm(b - a)), float(np.linalg.norm(d - c))
+    u = (b - a) / length
     stations: list[list] = []
     for n, crossing in enumerate(found):
         if k in crossing.pair:
             on_centre, _ = crossing.on(k)
-            stations += [[float((crossing.points[q] - a) @ u) / np.linalg.norm(b - a), first + 4 * n + q, None]
-                         for q in on_centre]
+            stations += [[float((crossing.points[q] - a) @ u) / length, first + 4 * n + q, None] for q in on_centre]
     for n, crossing in enumerate(found):
         if k in crossing.pair:
             for q in crossing.on(k)[1]:
-                t = float((crossing.points[q] - c) @ u) / np.linalg.norm(d - c)
-                near = [m for m in stations if m[2] is None and m[1] is not None
-                        and abs(m[0] - t) * np.linalg.norm(b - a) < h / 3]
+                t = float((crossing.points[q] - c) @ u) / bond_length
+                near = [m for m in stations if m[2] is None and m[1] is not None and abs(m[0] - t) * length < h / 3]
                 if near:
                     min(near, key=lambda m: abs(m[0] - t))[2] = first + 4 * n + q
                 else:

@@ -110,16 +110,16 @@ def frame_members(outline: Outline, ends: Sequence, width: float, lever: float, 
                              "left) does not cross the outline's near its ends; move its ends along the sides, "
                              "away from the corners") from None
         members.append(member)
+    found = []
     for i in range(len(members)):
         for j in range(i + 1, len(members)):
             a, b = members[i], members[j]
             if a.line.intersects(b.line):
-                _check_crossing(outline, a, b, width, lever, f"{name}[{i}] and {name}[{j}]")
+                found.append(_checked_crossing(outline, members, (i, j), width, lever, f"{name}[{i}] and {name}[{j}]"))
             elif a.line.distance(b.line) < width:
                 raise SceneError(
                     f"{name}[{i}] and {name}[{j}] come closer than the strip width: members that do not cross "
                     f"are kept frame.width = {width:g} mm apart or more")
-    found = crossings(members, lever)
     for p in range(len(found)):
         for q in range(p + 1, len(found)):
             gap = float(np.linalg.norm(found[p].points[0] - found[q].points[0]))
@@ -158,11 +158,15 @@ def crossings(members: Sequence[Member], lever: float) -> list[Crossing]:
     for i in range(len(members)):
         for j in range(i + 1, len(members)):
             a, b = members[i], members[j]
-            if not a.line.intersects(b.line):
-                continue
-            points = [_meet(a, b, sa, sb, lever) for sa in (0.0, 1.0) for sb in (0.0, 1.0)]
-            out.append(Crossing((i, j), np.array(points)))
+            if a.line.intersects(b.line):
+                out.append(Crossing((i, j), _crossing_points(a, b, lever)))
     return out
+
+
+def _crossing_points(a: Member, b: Member, lever: float) -> np.ndarray:
+    """(4, 2) mm: where a's centreline and bond line meet b's centreline and bond line
+    (:class:`Crossing`'s order)."""
+    return np.array([_meet(a, b, sa, sb, lever) for sa in (0.0, 1.0) for sb in (0.0, 1.0)])
 
 
 def _left(member: Member) -> np.ndarray:
@@ -177,20 +181,24 @@ def _meet(a: Member, b: Member, shift_a: float, shift_b: float, lever: float) ->
     return pa + t[0] * a.direction
 
 
-def _check_crossing(outline: Outline, a: Member, b: Member, width: float, lever: float, what: str) -> None:
-    """Refuse a crossing of ``a`` and ``b`` that a four-strip junction does not model: too shallow,
-    or so near the outline that its strips' bands overlap the outline's."""
+def _checked_crossing(outline: Outline, members: Sequence[Member], pair: tuple[int, int], width: float,
+                      lever: float, what: str) -> Crossing:
+    """The crossing of the members ``pair``, refused where a four-strip junction does not model it:
+    too shallow (checked first: parallel lines do not meet), or so near the outline that its
+    strips' bands overlap the outline's."""
+    a, b = members[pair[0]], members[pair[1]]
     sine = abs(float(a.direction[0] * b.direction[1] - a.direction[1] * b.direction[0]))
     if sine < np.sin(np.radians(MIN_ANGLE_DEG)):
         raise SceneError(f"{what} cross at {np.degrees(np.arcsin(min(sine, 1.0))):.3g} deg: members cross at "
                          f"{MIN_ANGLE_DEG:g} deg or more")
-    points = np.array([_meet(a, b, sa, sb, lever) for sa in (0.0, 1.0) for sb in (0.0, 1.0)])
+    points = _crossing_points(a, b, lever)
     near = float(outline.distance(points).min())
     if near < lever + width:
         x, y = points[0]
         raise SceneError(f"{what} cross at [{x:.3g}, {y:.3g}], where their strips come {near:.3g} mm from the "
                          "outline: a junction of four strips lies inside the film, frame.bond_lever + frame.width = "
                          f"{lever + width:g} mm or more from the outline; move the members' ends")
+    return Crossing(pair, points)
 
 
 def ring_crossings(outline: Outline, member: Member, lever: float, shift: float) -> tuple[float, float]:
@@ -250,7 +258,7 @@ def midline_fractions(outline: Outline, members: Sequence[Member]) -> np.ndarray
     fractions of the way from the base midpoint to the apex, ``results.metrics.bending_angle``):
     the fraction of that way, the mean of its two ends' (m,), in the members' order. None unless
     every member runs from one side to the other (windows in a row, base to apex)."""
-    if not members or any(a.line.intersects(b.line) for k, a in enumerate(members) for b in members[k + 1:]):
+    if not members or crossings(members, 0.0):
         return None
     L, s_apex = outline.length, outline.apex_arc_length()
     out = []

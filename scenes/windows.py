@@ -85,9 +85,8 @@ def open_window_masks(nodes: np.ndarray, triangles: np.ndarray, lines: Sequence[
         (nt,) bool: the open windows' insides, and their bands.
     """
     nt = len(triangles)
-    removed, strip = np.zeros(nt, bool), np.zeros(nt, bool)
     if not opened:
-        return removed, strip
+        return np.zeros(nt, bool), np.zeros(nt, bool)
     n = len(nodes)
     edges = np.sort(np.vstack([triangles[:, [0, 1]], triangles[:, [1, 2]], triangles[:, [2, 0]]]), axis=1)
     code = edges[:, 0] * n + edges[:, 1]

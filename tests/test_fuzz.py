@@ -212,11 +212,17 @@ def test_members_on_any_polygon_are_meshed_and_modelled_or_refused_by_name(polyg
         assert np.abs((p - p[0]) @ left).max() < 1e-9 * outline.side_length
         assert np.allclose((mesh.nodes[bonds] - p) @ left, scene.frame.lever, atol=1e-9 * outline.side_length)
         assert chain[0] in mesh.frame_nodes and chain[-1] in mesh.frame_nodes
+    assert_one_flat_problem(scene)
+
+
+def assert_one_flat_problem(scene) -> None:
+    """Neither the FEM's model of ``scene`` nor DR's (triangles) carries a force in the flat state
+    at no pre-stretch (the frame's bending and torsion energies zero), and pre-stretched to 1.2
+    both store the same energy there."""
     problem = DemesProblem(scene, 0, "P1")
     flat = problem.evaluate(problem.X.ravel(), order=1)
     assert abs(flat.parts["frame_bending"]) + abs(flat.parts["frame_torsion"]) < 1e-20
     assert np.abs(flat.gradient.reshape(-1, 3)[~problem.held]).max() < 1e-9
-    # DR's model of the same scene: no force anywhere in the flat state either
     model = build_dr(scene.updated(**{"dr.membrane_net": "triangles"}), 1.0).model
     packed = model.pack()
     X = np.zeros((packed.n_total, 3))
@@ -224,7 +230,6 @@ def test_members_on_any_polygon_are_meshed_and_modelled_or_refused_by_name(polyg
     G = np.zeros_like(X)
     dr_gradient(X, packed, G, np.zeros((0, 6)))
     assert np.abs(G[:packed.n][~model.fixed]).max() < 1e-9
-    # pre-stretched: the flat film's energy is the same in both (the strip bands store none)
     stretched = scene.updated(**{"dr.membrane_net": "triangles", "prestretch": 1.2})
     packed = build_dr(stretched, 1.2).model.pack()
     problem = DemesProblem(stretched, 0, "P1")
@@ -239,7 +244,8 @@ def test_crossing_members_are_meshed_and_modelled_or_refused_by_name(width, heig
     base and top (at random points, the rectangle's vertices listed from a random corner): refused
     with a SceneError naming frame.members, or crossing, the four points where their lines meet
     are nodes of both members' lines, a joint ties them, and both solvers' models of the flat
-    state carry no force at no pre-stretch and store the same energy pre-stretched."""
+    state carry no force at no pre-stretch and store the same energy pre-stretched
+    (:func:`assert_one_flat_problem`)."""
     corners = [[-width / 2, 0.0], [width / 2, 0.0], [width / 2, height], [-width / 2, height]]
     corners = corners[turn:] + corners[:turn]
     a, b, c, d = ends
@@ -262,20 +268,7 @@ def test_crossing_members_are_meshed_and_modelled_or_refused_by_name(width, heig
                 assert near.max() < 1e-9 * scene.outline.side_length
     joints = member_joints(mesh.frame_nodes, mesh.bond_nodes, mesh.members, mesh.member_bonds)
     assert len(joints) == 4 + len(found)
-    problem = DemesProblem(scene, 0, "P1")
-    flat = problem.evaluate(problem.X.ravel(), order=1)
-    assert np.abs(flat.gradient.reshape(-1, 3)[~problem.held]).max() < 1e-9
-    model = build_dr(scene, 1.0).model
-    packed = model.pack()
-    X = np.zeros((packed.n_total, 3))
-    X[:packed.n] = model.nodes
-    G = np.zeros_like(X)
-    dr_gradient(X, packed, G, np.zeros((0, 6)))
-    assert np.abs(G[:packed.n][~model.fixed]).max() < 1e-9
-    stretched = scene.updated(prestretch=1.2)
-    problem = DemesProblem(stretched, 0, "P1")
-    assert float(sum(dr_energy(X, build_dr(stretched, 1.2).model.pack()))) == pytest.approx(
-        problem.energy(problem.X.ravel()), rel=1e-12)
+    assert_one_flat_problem(scene)
 
 
 toml_texts = st.one_of(
