@@ -248,7 +248,7 @@ def _follow_path(scene: Scene, dm: DemesModel, x_start: np.ndarray, start: float
             # clustered net does, at every step): that symmetry is not followed further
             symmetric = replace(res, x=restore(x_start, kept, dm.model.fixed))
             mode = lowest_mode(dm, symmetric, relax_with)
-            if mode.eigenvalue < 0.0:
+            if stability.is_negative(mode):
                 res = symmetric
             else:
                 drifting.update(g.name for g in broken)

@@ -14,6 +14,7 @@ from scenes import Scene
 
 from . import stability
 from .demes_model import DemesModel
+from .kernels import gradient
 from .relax import relax
 from .symmetry import kept_by, restore, restore_mode
 
@@ -29,6 +30,9 @@ MIN_TOLERANCE = 1e-12
 
 MAX_SADDLE_STEPS = 5
 """Steps off saddles at one pre-stretch after which the state is reported 'unstable'."""
+
+HILLTOP_ITERATIONS = 8
+"""Newton steps that locate the hilltop along a saddle's mode before it is left."""
 
 
 def relax_settings(scene: Scene, dm: DemesModel) -> dict:
@@ -79,7 +83,7 @@ def off_saddles(scene: Scene, dm: DemesModel, res: Result, runs: list[Result], *
             runs[-1] = replace(res, info={**checked, "stable": None},
                                message=f"{res.message}; its stability is unknown (the lowest mode was not found)")
             return runs[-1]
-        if checked["stable"] and not (unstable and steps == 0 and mode.eigenvalue < 0.0):
+        if checked["stable"] and not (unstable and steps == 0 and stability.is_negative(mode)):
             runs[-1] = replace(res, info=checked)
             return _to_equilibrium(scene, dm, runs, mode, relax_with) if polish else runs[-1]
         # from the symmetric state the saddle is, not from the drift a relaxation left along its mode
@@ -87,7 +91,7 @@ def off_saddles(scene: Scene, dm: DemesModel, res: Result, runs: list[Result], *
         saddle = restore(res.x, kept, dm.model.fixed)
         mode = mode._replace(shape=restore_mode(mode.shape, kept))
         sign = side_of_mode(mode.shape, apex=apex, lift=lift, up=up, flat=dm.model.nodes)
-        pushed = (stability.leave_saddle(dm.model, saddle, mode, sign=sign, size=SADDLE_STEP * scene.outline.side_length)
+        pushed = (leave_saddle(dm.model, saddle, mode, sign=sign, size=SADDLE_STEP * scene.outline.side_length)
                   if steps < MAX_SADDLE_STEPS else None)
         if pushed is None:
             runs[-1] = replace(res, converged=False, status="unstable", info=checked, message=(
@@ -110,6 +114,59 @@ def off_saddles(scene: Scene, dm: DemesModel, res: Result, runs: list[Result], *
         if not res.converged:
             runs[-1] = replace(res, info={**res.info, "saddle_steps": steps})
             return runs[-1]
+
+
+def leave_saddle(model, x: np.ndarray, mode: stability.Mode, *, sign: float, size: float) -> np.ndarray | None:
+    """Positions off the saddle near ``x`` along ``mode`` where the potential energy is lower.
+
+    A relaxation stops within its tolerance, which along a mode this soft can leave the state
+    on one side of the saddle already (on a square's twisted state, 3e-4 of the side off it):
+    the hilltop along the mode is found first (Newton on the energy's slope along it). From
+    there the step is ``size`` mm at the node that moves most, halved until the energy drops
+    (at most 30 times), on the side ``sign`` (+1 or -1) first, then, where the energy rises
+    that way, on the other; then doubled while the energy still drops (up to 16 ``size``), so
+    that the relaxation starts down the slope rather than creeping back to the saddle. None if
+    the energy never drops."""
+    P = model.pack()
+    X = np.zeros((P.n_total, 3))
+    free = ~model.fixed[: P.n]
+
+    def energy_at(step: float) -> float:
+        X[: P.n] = x + step * mode.shape
+        return stability.potential_energy(X, P, model.loads)
+
+    def slope_at(step: float) -> float:
+        X[: P.n] = x + step * mode.shape
+        G = np.zeros_like(X)
+        gradient(X, P, G, np.zeros((0, 6)))
+        return float(np.sum((G[: P.n] - model.loads) * mode.shape * free))
+
+    top, h = 0.0, 1e-4 * size
+    for _ in range(HILLTOP_ITERATIONS):
+        curvature = (slope_at(top + h) - slope_at(top - h)) / (2.0 * h)
+        if not curvature < 0.0:
+            break  # no hilltop along the mode here
+        move = -slope_at(top) / curvature
+        if not abs(top + move) < size:
+            top = 0.0  # the hilltop is not near: step from the state itself
+            break
+        top += move
+        if abs(move) < 1e-6 * size:
+            break
+    e0 = energy_at(top)
+    for side in (sign, -sign):
+        step = side * size
+        for _ in range(30):
+            e = energy_at(top + step)
+            if e < e0 - 1e-12 * abs(e0):
+                for _ in range(4):
+                    e_further = energy_at(top + 2.0 * step)
+                    if not e_further < e:
+                        break
+                    step, e = 2.0 * step, e_further
+                return x + (top + step) * mode.shape
+            step *= 0.5
+    return None
 
 
 def _to_equilibrium(scene: Scene, dm: DemesModel, runs: list[Result], mode: stability.Mode,

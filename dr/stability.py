@@ -6,7 +6,7 @@ passes the buckling load. A fast relaxation (the frame mass) reaches it before t
 grown. The test is the generalised eigenproblem K v = w M v on the free DOFs, with K the
 stiffness (central differences of the exact gradient, never assembled) and M the run's own
 masses (so w <= 1 for f = 2, and the masses precondition the search): w < -:data:`NEUTRAL`
-is a saddle. :func:`leave_saddle` steps from it along the mode, to lower energy, as the FEM's
+is a saddle, which :func:`dr.saddles.off_saddles` leaves along that mode, as the FEM's
 continuation does.
 """
 
@@ -27,6 +27,11 @@ NEUTRAL = 1e-6
 """Generalised eigenvalues w above minus this count as zero (slack film, round-off of the
 central differences): w is dimensionless, about 1 for the stiffest mode."""
 
+ROUND_OFF = 1e-11
+"""Generalised eigenvalues w above minus this are zero to the round-off of the central
+differences (the matrix-free K u's noise, about 1e-11 of the stiffest mode): a node whose
+triangles are all slack has such a mode, along which the energy does not change at all."""
+
 FLOOR = 1e-3
 """The node blocks get this fraction of their median diagonal added: a slack film node's mass
 is a sliver of its stiffness in the slack direction, and there the central differences' noise
@@ -42,9 +47,6 @@ SPECTRUM_KRYLOV = 60
 MODE_KRYLOV = 40
 """Lanczos vectors kept for the lowest mode (ARPACK's ``ncv``): 40 against ARPACK's 20 halved
 the applications of K on a curled 581-node rectangle (1461 -> 681)."""
-
-HILLTOP_ITERATIONS = 8
-"""Newton steps that locate the hilltop along a saddle's mode before it is left."""
 
 MODE_ITERATIONS = 2000
 """Largest number of Lanczos restarts for the lowest mode."""
@@ -351,6 +353,13 @@ def film_areas(model) -> np.ndarray:
     return area
 
 
+def is_negative(mode: Mode) -> bool:
+    """Whether ``mode``'s stiffness is negative beyond the differences' round-off
+    (:data:`ROUND_OFF`): the test for a state known to be unstable, where a weak saddle within
+    the neutral band is still left, but a null mode (a slack node) gives no direction to leave by."""
+    return bool(mode.eigenvalue < -ROUND_OFF)
+
+
 def is_saddle(mode: Mode, neutral: float) -> bool:
     """Whether ``mode`` makes its state a saddle: a negative stiffness below minus ``neutral``
     (N/mm^3) per unit film area (:func:`results.path.neutral_stiffness`, the FEM's measure);
@@ -401,59 +410,6 @@ def spectrum(model, x: np.ndarray, *, masses: str = "frame", held: np.ndarray | 
         ends.append((float(w[0]), _shape(op.to_displacement(v[:, 0]), n)))
     (w_max, top), (w_min, bottom) = ends
     return Spectrum(w_max, w_min, top, bottom, found)
-
-
-def leave_saddle(model, x: np.ndarray, mode: Mode, *, sign: float, size: float) -> np.ndarray | None:
-    """Positions off the saddle near ``x`` along ``mode`` where the potential energy is lower.
-
-    A relaxation stops within its tolerance, which along a mode this soft can leave the state
-    on one side of the saddle already (on a square's twisted state, 3e-4 of the side off it):
-    the hilltop along the mode is found first (Newton on the energy's slope along it). From
-    there the step is ``size`` mm at the node that moves most, halved until the energy drops
-    (at most 30 times), on the side ``sign`` (+1 or -1) first, then, where the energy rises
-    that way, on the other; then doubled while the energy still drops (up to 16 ``size``), so
-    that the relaxation starts down the slope rather than creeping back to the saddle. None if
-    the energy never drops."""
-    P = model.pack()
-    X = np.zeros((P.n_total, 3))
-    free = ~model.fixed[: P.n]
-
-    def energy_at(step: float) -> float:
-        X[: P.n] = x + step * mode.shape
-        return potential_energy(X, P, model.loads)
-
-    def slope_at(step: float) -> float:
-        X[: P.n] = x + step * mode.shape
-        G = np.zeros_like(X)
-        gradient(X, P, G, np.zeros((0, 6)))
-        return float(np.sum((G[: P.n] - model.loads) * mode.shape * free))
-
-    top, h = 0.0, 1e-4 * size
-    for _ in range(HILLTOP_ITERATIONS):
-        curvature = (slope_at(top + h) - slope_at(top - h)) / (2.0 * h)
-        if not curvature < 0.0:
-            break  # no hilltop along the mode here
-        move = -slope_at(top) / curvature
-        if not abs(top + move) < size:
-            top = 0.0  # the hilltop is not near: step from the state itself
-            break
-        top += move
-        if abs(move) < 1e-6 * size:
-            break
-    e0 = energy_at(top)
-    for side in (sign, -sign):
-        step = side * size
-        for _ in range(30):
-            e = energy_at(top + step)
-            if e < e0 - 1e-12 * abs(e0):
-                for _ in range(4):
-                    e_further = energy_at(top + 2.0 * step)
-                    if not e_further < e:
-                        break
-                    step, e = 2.0 * step, e_further
-                return x + (top + step) * mode.shape
-            step *= 0.5
-    return None
 
 
 def _mass_halves(built, n: int):

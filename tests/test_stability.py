@@ -6,6 +6,7 @@ import pytest
 import dr
 import scenes
 from dr import stability
+from dr.saddles import leave_saddle
 
 EA, EI, LENGTH = 1300.0, 0.78, 80.0
 EULER = np.pi**2 * EI / LENGTH**2  # pinned-pinned buckling load, N
@@ -109,3 +110,26 @@ def test_the_frame_mass_bounds_the_column_s_spectrum_and_holding_nodes_interlace
     assert inner.found and ends.w_min <= inner.w_min and inner.w_max <= ends.w_max + 1e-9
     assert inner.w_min > 2 * ends.w_min  # the half sine is gone: the softest mode left is stiffer
     assert np.abs(inner.bottom[held]).max() == 0.0
+
+
+def test_a_node_held_by_slack_cables_is_a_null_mode_not_a_saddle():
+    """A node hung from a stable column by two slack tension-only cables carries no stiffness:
+    the lowest mode is that node's, with a stiffness zero to the differences' round-off. It is
+    no saddle, even for a path that knows its state fell off a symmetric one: the energy does
+    not drop along it either way, so there is no side to leave by."""
+    column, x = compressed_column(0.9 * EULER)
+    n = column.n
+    nodes = np.vstack([x, [[LENGTH / 2, 5.0, 0.0]]])
+    model = dr.Model(nodes)
+    model.support([0, n - 1])
+    model.add_rod(np.arange(n), EI=EI, EA=EA)
+    middle = n // 2
+    model.add_link([middle, middle + 1], [n, n], EA=EA, rest_length=[10.0, 10.0], tension_only=True)
+    start = nodes.copy()
+    start[:n] = x
+    mode = stability.lowest_mode(model, start)
+    assert mode.found
+    assert np.argmax(np.linalg.norm(mode.shape, axis=1)) == n
+    assert abs(mode.eigenvalue) <= stability.ROUND_OFF
+    assert not stability.is_negative(mode) and not stability.is_saddle(mode, 0.0)
+    assert leave_saddle(model, start, mode, sign=1.0, size=1.0) is None
