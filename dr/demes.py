@@ -11,7 +11,8 @@ from typing import Iterator, Sequence
 import numpy as np
 
 from results import CellBlock, Result
-from results.path import AFTER_EVENT, LOCATE, jump_distance, jumped, jumps_message, largest_move, planar, turned
+from results.path import (AFTER_EVENT, LOCATE, jump_distance, jumped, jumps_message, largest_move, planar, strayed,
+                          turned)
 from scenes import Scene
 from scenes.mesh import membrane_mesh
 from scenes.transfer import transfer_linear
@@ -272,7 +273,8 @@ def _follow_path(scene: Scene, dm: DemesModel, x_start: np.ndarray, start: float
         moved = res.x - x_start
         move = largest_move(res.x, x_start)
         jump = lam > reached and (jumped(move, lam - reached, levels.rate, side)
-                                  or turned(moved, levels.last_move, side))
+                                  or turned(moved, levels.last_move, side)
+                                  or strayed(moved, levels.last_move, levels.rate, lam - reached, side))
         event = False
         if lam <= reached:  # a state relaxed at its own pre-stretch: no path, no rate
             pass

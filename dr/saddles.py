@@ -186,7 +186,8 @@ def _to_equilibrium(scene: Scene, dm: DemesModel, runs: list[Result], mode: stab
         length = float(np.linalg.norm(mode.newton_step, axis=1).max())
         if length <= AT_EQUILIBRIUM * scene.outline.side_length:
             break
-        trial = relax(dm.model, tol=scene.dr.tolerance, x_start=res.x + mode.newton_step, **relax_with)
+        trial = relax(dm.model, tol=max(PUSHED_TOLERANCE * scene.dr.tolerance, MIN_TOLERANCE),
+                      x_start=res.x + mode.newton_step, **relax_with)
         if not trial.converged:
             break
         trial_mode = lowest_mode(dm, trial, relax_with)

@@ -73,6 +73,30 @@ def side_of_mode(mode: np.ndarray, *, apex: int, lift: np.ndarray, up: float, fl
     return float(np.sign(np.sum(mode[:, 2] * tilt_shape)) * up or up)
 
 
+STRAY = 0.5
+"""A step whose state ends farther than this fraction of the secant's predicted move from the
+secant's prediction left the branch (:func:`strayed`)."""
+
+
+def strayed(move: np.ndarray, last_move: np.ndarray | None, rate: float | None, step: float,
+            side_length: float) -> bool:
+    """Whether a step of ``step`` in pre-stretch whose nodes moved by ``move`` (n, 3) mm left the
+    branch whose last step moved them by ``last_move`` at ``rate`` (its largest nodal move per
+    unit pre-stretch; either None: no last step on this branch): it ended more than
+    :data:`STRAY` times the secant's predicted move (``last_move`` scaled to ``step``) from that
+    prediction. This sees what the rate and turn tests (:func:`jumped`, :func:`turned`) do
+    not: a step that stopped on a nearer stable state of another branch, short of where its own
+    went, in the branch's direction. Moves within :data:`JUMP_FLOOR` of the side are no jump."""
+    if last_move is None or rate is None:
+        return False
+    moved, last = np.reshape(move, (-1, 3)), np.reshape(last_move, (-1, 3))
+    predicted = last * (rate * step / max(float(np.linalg.norm(last, axis=1).max()), 1e-300))
+    reach = float(np.linalg.norm(predicted, axis=1).max())
+    if max(float(np.linalg.norm(moved, axis=1).max()), reach) <= JUMP_FLOOR * side_length:
+        return False
+    return largest_move(moved, predicted) > STRAY * reach
+
+
 def planar(x: np.ndarray, flat: np.ndarray, side_length: float) -> bool:
     """Whether positions ``x`` (n, 3) mm are the flat state ``flat`` (n, 3) but for in-plane moves.
 

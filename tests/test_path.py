@@ -9,7 +9,7 @@ import dr
 import fem_reference
 import scenes
 from dr.symmetry import kept_by, restore
-from results.path import JUMP_FLOOR, LOCATE, jumped, planar, side_of_mode
+from results.path import JUMP_FLOOR, LOCATE, STRAY, jumped, planar, side_of_mode, strayed
 
 RECT = {"frame.outline": "polygon", "frame.vertices": [[-20.0, 0.0], [20.0, 0.0], [20.0, 60.0], [-20.0, 60.0]],
         "frame.corner_radius": 4.0, "mesh.divisions": 8}
@@ -50,6 +50,24 @@ def test_a_jump_is_a_move_far_beyond_the_paths_rate():
     assert jumped(10.0, 0.01, 100.0, side)
     flat = np.zeros((3, 3))
     assert planar(flat + [1.0, 2.0, 0.0], flat, side) and not planar(flat + [0.0, 0.0, 1e-3], flat, side)
+
+
+def test_a_step_that_ends_far_from_the_secants_prediction_strayed():
+    """The secant predicts a step's move from the last one scaled to the step; a state short of
+    it along the branch (a nearer stable state), beyond it, or off its direction is a jump."""
+    side, rng = 40.0, np.random.default_rng(1)
+    last = rng.standard_normal((30, 3))
+    last *= 2.0 / np.linalg.norm(last, axis=1).max()  # 2 mm in a step of 0.01: rate 200 mm per unit
+    rate, step = 200.0, 0.02
+    predicted = 2.0 * last
+    assert not strayed(predicted, last, rate, step, side)
+    assert not strayed((1.0 - 0.9 * STRAY) * predicted, last, rate, step, side)  # a branch that slows
+    assert strayed((1.0 - 1.1 * STRAY) * predicted, last, rate, step, side)  # stopped short of it
+    assert strayed(3.0 * predicted, last, rate, step, side)
+    assert strayed(predicted[::-1], last, rate, step, side)  # the same length, another direction
+    assert not strayed(predicted, None, rate, step, side) and not strayed(predicted, last, None, step, side)
+    tiny = 0.1 * JUMP_FLOOR * side / 4.0
+    assert not strayed(tiny * predicted[::-1], tiny * last, rate * tiny, step, side)  # within the floor
 
 
 @pytest.fixture(scope="module")
