@@ -213,7 +213,7 @@ def voltage_sweep(scene: Scene, voltages: Sequence[float], refinement: int | Non
         t0, records = time.perf_counter(), []
         if stop is not None:
             res.status, res.converged, res.message = path_end(
-                res.bending_angle, path.voltage, v, stop.status, stop.detail)
+                res.bending_angle, path.voltage, v, stop.status, stop.detail, prestretched=pre.converged)
             res.info["flat"] = res.status == "flat"
             yield res
             return

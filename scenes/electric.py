@@ -114,12 +114,14 @@ def check_voltages(voltages: Sequence[float]) -> list[float]:
     return values
 
 
-def path_end(bending_angle: float, voltage: float, requested: float, status: str, detail: str
-             ) -> tuple[str, bool, str]:
+def path_end(bending_angle: float, voltage: float, requested: float, status: str, detail: str, *,
+             prestretched: bool = True) -> tuple[str, bool, str]:
     """(status, converged, message) of the last state of a voltage path that could go no
     further. A flat state is a regular end (status 'flat'): past it the film has no tension left
-    and no stable state (it would wrinkle). Otherwise the solver's ``status`` and ``detail``."""
-    if abs(bending_angle) < FLAT_DEG:
+    and no stable state (it would wrinkle). Otherwise, and wherever the pre-stretch path itself
+    stopped short (``prestretched`` False: its state is no pre-stretched DEMES, flat or not),
+    the solver's ``status`` and ``detail``."""
+    if prestretched and abs(bending_angle) < FLAT_DEG:
         return "flat", True, (f"V = {voltage:g} V: flat; no stable state at higher voltage (the film "
                               f"has no tension left); requested V = {requested:g} V not reached")
     return status, False, f"V = {voltage:g} V: {detail}; requested V = {requested:g} V not reached"

@@ -296,3 +296,20 @@ def test_the_closed_form_flattening_voltage_refuses_an_unequal_pair_and_takes_an
     for call in (flattening_voltage, fit):
         with pytest.raises(scenes.SceneError, match=r"loading.prestretch = \[1.5, 1.2\]"):
             call(unequal)
+
+
+def test_a_voltage_sweep_whose_prestretch_path_stopped_says_so_and_is_not_flat():
+    """DR's pre-stretch path given too few time steps stops nearly flat, short of its
+    pre-stretch: the voltage sweep reports that stop with its own status, not converged, and
+    never as the regular flat end of an actuated DEMES (which the nearly flat state would pass
+    for)."""
+    import dr
+    import scenes
+
+    scene = scenes.paper_demes(1.2, "strip", **{"dr.membrane_net": "triangles", "mesh.divisions": 6,
+                                                "dr.max_iterations": 20})
+    states = list(dr.voltage_sweep(scene, [0.0, 500.0]))
+    assert len(states) == 1
+    (first,) = states
+    assert not first.converged and first.status not in ("flat", "converged")
+    assert not first.info["flat"] and "the pre-stretched state" in first.message

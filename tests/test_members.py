@@ -235,3 +235,25 @@ def test_dr_and_the_fem_agree_on_a_frame_whose_members_cross():
         assert len(a.info["snaps"]) == len(b.info["snaps"]) == 2
         for (a0, a1), (b0, b1) in zip(a.info["snaps"], b.info["snaps"]):
             assert max(a0, b0) <= min(a1, b1) + 2 * LOCATE  # the same jump, located in both
+
+
+def test_dr_passes_a_saddle_too_weak_to_leave_and_meets_the_fem_on_a_frame_with_double_members():
+    """The gripper's frame with two members 12 mm apart between its film windows (the gap
+    covered, 8 divisions, P1): just past the flat state's buckling near 1.02 the saddle is so
+    weak (w = -1.3e-7 in units of the masses) that the energy along its mode falls only within
+    0.005 mm of it, and five pushes each relax back within 1e-9 mm. DR's path steps on from the
+    pushed state instead of stopping 'unstable' at 1.0203, and at 1.1 both solvers are on one
+    state (within 0.1 deg and 1e-6 in energy) on the lift's side."""
+    import dr
+    import fem_reference
+
+    ys = [22, 34, 56, 68]
+    bands = {"base": (0, 22), "middle": (34, 56), "tip": (68, 90)}
+    scene = scenes.load("multisegment_gripper").updated(**{
+        "frame.members": [[[-12, y], [12, y]] for y in ys], "fem.element": "P1",
+        "electrodes": [{"name": k, "region": [[-12, a], [12, a], [12, b], [-12, b]]} for k, (a, b) in bands.items()]})
+    (relaxed,) = list(dr.sweep(scene, [1.1]))
+    (fem,) = list(fem_reference.sweep(scene, [1.1]))
+    assert relaxed.converged and fem.converged and relaxed.branch == fem.branch == "up"
+    assert relaxed.bending_angle == pytest.approx(fem.bending_angle, abs=0.1)
+    assert relaxed.energy["total"] == pytest.approx(fem.energy["total"], rel=1e-6)
