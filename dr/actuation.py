@@ -67,7 +67,8 @@ def voltage_sweep(scene: Scene, voltages: Sequence[float], progress: bool = Fals
     cover = electrode_coverage(scene, model.nodes[model.dielectric_triangles])
     at = lambda v: driven_at(scene, v, electrodes)  # noqa: E731
     flat_area = model.dielectric_energy(dm.model.nodes)[1]
-    v_now, stop = 0.0, None if state.converged else (state.status, "the pre-stretched state: " + state.message)
+    prestretched = state.converged  # the path reached the scene's pre-stretch
+    v_now, stop = 0.0, None if prestretched else (state.status, "the pre-stretched state: " + state.message)
 
     settings = relax_settings(scene, dm)
 
@@ -112,7 +113,7 @@ def voltage_sweep(scene: Scene, voltages: Sequence[float], progress: bool = Fals
         out.info["voltage_jumps"] = list(jumps)
         if stop is not None:
             out.status, out.converged, out.message = path_end(out.bending_angle, v_now, v, *stop,
-                                                              prestretched=state.converged)
+                                                              prestretched=prestretched)
             out.info["flat"] = out.status == "flat"
             yield out
             return

@@ -266,10 +266,11 @@ def _follow_path(scene: Scene, dm: DemesModel, x_start: np.ndarray, start: float
         if mode is not None:
             res = off_saddles(scene, dm, res, runs, relax_with=relax_with, mode=mode, unstable=broke, polish=last)
         if res.status == "unstable" and not last:
-            # a saddle so weak that the energy along its mode falls only within a few
-            # thousandths of a mm of it (just past a bifurcation, on a gripper with double
-            # members: five pushes of 0.005 mm, each relaxed back within 1e-9 mm) is left by
-            # the path instead: the next step, from the pushed state, grows the mode
+            # a state still a saddle after the steps off it is left by the path's next step
+            # from the last pushed state, where the mode has grown; only a requested level is
+            # reported unstable (just past a bifurcation on a gripper with double members the
+            # energy along the mode falls only within 0.005 mm of the saddle, and five pushes
+            # each relaxed back within 1e-9 mm)
             res = runs[-1] = replace(res, converged=True, status="converged")
         if not res.converged and step > st.prestretch_step:
             step = max(0.5 * step, st.prestretch_step)  # retry from the last converged state

@@ -175,8 +175,8 @@ def _to_equilibrium(scene: Scene, dm: DemesModel, runs: list[Result], mode: stab
     Newton steps K^-1 r on its assembled stiffness: each step's end is relaxed (to the
     tolerance, then on to a hundredth of it where its own Newton step is not yet halved: at the
     tolerance the gripper's state at 1.1 drifted 0.59 mm back along its soft mode) and kept
-    only where it is a stable state whose own Newton step is at most half this one, up to :data:`NEWTON_STEPS` times or until the step is below
-    :data:`AT_EQUILIBRIUM` of the side. A residual tolerance stops DR r / w from the
+    only where it is a stable state whose own Newton step is at most half this one, up to
+    :data:`NEWTON_STEPS` times or until the step is below :data:`AT_EQUILIBRIUM` of the side. A residual tolerance stops DR r / w from the
     equilibrium along a soft mode (w its stiffness); the Newton step removes that error where
     the quadratic model holds, and the guard keeps the relaxed state where it does not. Kept
     states are appended to ``runs``; ``info['newton_steps']`` counts them."""

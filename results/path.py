@@ -95,8 +95,8 @@ def strayed(move: np.ndarray, last_move: np.ndarray | None, rate: float | None, 
     moved, last = np.reshape(move, (-1, 3)), np.reshape(last_move, (-1, 3))
     predicted = last * (rate * step / max(float(np.linalg.norm(last, axis=1).max()), 1e-300))
     reach = float(np.linalg.norm(predicted, axis=1).max())
-    move = float(np.linalg.norm(moved, axis=1).max())
-    if max(move, reach) <= JUMP_FLOOR * side_length or move >= reach:
+    length = float(np.linalg.norm(moved, axis=1).max())
+    if max(length, reach) <= JUMP_FLOOR * side_length or length >= reach:
         return False
     return largest_move(moved, predicted) > STRAY * reach
 
